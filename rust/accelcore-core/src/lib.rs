@@ -1,0 +1,23 @@
+//! # accelcore-core
+//!
+//! Pure-Rust streaming kernels behind `accelcore`, the thermal-calibration
+//! library for MEMS accelerometers. No Python here: the binding crate
+//! `accelcore-py` only converts arrays and maps errors.
+//!
+//! Every kernel is a small struct with `push` (a chunk of samples), `merge`
+//! (another accumulator of the same configuration) and `finish` (the result).
+//! Results never depend on how the input was chunked.
+//!
+//! - [`Decimator`]: time-aligned block means (20 Hz to 2 Hz by default).
+//! - [`TemperatureBinner`]: per-temperature-bin count, mean and variance.
+//! - [`LeastSquares`]: incremental weighted least squares by Givens QR.
+
+pub mod binning;
+pub mod decimate;
+pub mod error;
+pub mod regression;
+
+pub use binning::{BinnedStats, BinnerConfig, TemperatureBinner};
+pub use decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
+pub use error::{Error, Result};
+pub use regression::{LeastSquares, LstsqSolution};
