@@ -1,0 +1,288 @@
+"""Type stubs of the compiled extension ``accelcore._accelcore``.
+
+Users import these classes from :mod:`accelcore.core`. Docstrings follow the
+NumPy convention and state units, NaN policy and empty-input behaviour.
+"""
+
+from typing import final
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__version__: str
+
+@final
+class DecimatedBlocks:
+    """Output of :class:`Decimator`: one row per kept block, in increasing block order.
+
+    Attributes
+    ----------
+    block_index : ndarray of int64
+        Block ``k`` covers ``[t0 + k*factor/rate_hz, t0 + (k+1)*factor/rate_hz)``.
+    count : ndarray of int64
+        Valid samples averaged in each block.
+    time_s : ndarray of float64
+        Mean time of the block's valid samples, s.
+    temperature_c : ndarray of float64
+        Mean temperature of the block's valid samples, °C.
+    channels : ndarray of float64, shape (n_blocks, n_channels)
+        Mean of each channel.
+    """
+
+    @property
+    def block_index(self) -> NDArray[np.int64]: ...
+    @property
+    def count(self) -> NDArray[np.int64]: ...
+    @property
+    def time_s(self) -> NDArray[np.float64]: ...
+    @property
+    def temperature_c(self) -> NDArray[np.float64]: ...
+    @property
+    def channels(self) -> NDArray[np.float64]: ...
+    def __len__(self) -> int: ...
+
+@final
+class Decimator:
+    """Time-aligned block-mean decimator (default 20 Hz to 2 Hz).
+
+    Parameters
+    ----------
+    factor : int, default 10
+        Nominal samples per block (>= 1).
+    rate_hz : float, default 20.0
+        Nominal input sample rate, Hz.
+    n_channels : int, default 3
+        Data channels besides time and temperature.
+    min_count : int, default 1
+        Blocks with fewer valid samples are dropped.
+    t0_s : float, optional
+        Origin of the block grid, s. Default: time of the first sample. Pass the
+        same value to every piece of a log that is split for :meth:`merge`.
+
+    Notes
+    -----
+    Block index of a sample: ``floor((t - t0) * rate_hz / factor)``, so a gap in
+    the log does not shift later blocks. A row with any NaN or infinite value is
+    skipped and counted in :attr:`n_skipped_nonfinite`. Time must strictly
+    increase, else :class:`accelcore.TimeOrderError`.
+    """
+
+    def __init__(
+        self,
+        *,
+        factor: int = 10,
+        rate_hz: float = 20.0,
+        n_channels: int = 3,
+        min_count: int = 1,
+        t0_s: float | None = None,
+    ) -> None: ...
+    def push(self, time_s: ArrayLike, temperature_c: ArrayLike, channels: ArrayLike) -> None:
+        """Push a chunk of ``n`` samples: time (s), temperature (°C), channels ``(n, n_channels)``.
+
+        Raises
+        ------
+        accelcore.ShapeError
+            If the lengths differ or ``channels`` has the wrong number of columns.
+        accelcore.TimeOrderError
+            If time does not strictly increase; the decimator is left unchanged.
+        """
+
+    def merge(self, other: Decimator) -> None:
+        """Merge the state of another piece of the same stream into this one.
+
+        Raises
+        ------
+        accelcore.IncompatibleError
+            If configurations or ``t0_s`` differ, or the pieces overlap in time.
+        """
+
+    def finish(self) -> DecimatedBlocks:
+        """Return every block with at least ``min_count`` valid samples; state is kept.
+
+        Raises
+        ------
+        accelcore.InsufficientDataError
+            If no block is kept.
+        """
+
+    def drain_completed(self) -> DecimatedBlocks:
+        """Remove and return the blocks that can no longer receive samples.
+
+        A drained decimator must not be merged with a piece that precedes it.
+        """
+
+    @property
+    def n_samples(self) -> int:
+        """Rows pushed so far, valid or not."""
+
+    @property
+    def n_skipped_nonfinite(self) -> int:
+        """Rows skipped because a value was NaN or infinite."""
+
+    @property
+    def factor(self) -> int: ...
+    @property
+    def rate_hz(self) -> float: ...
+    @property
+    def n_channels(self) -> int: ...
+    @property
+    def min_count(self) -> int: ...
+    @property
+    def t0_s(self) -> float | None: ...
+
+@final
+class BinnedStats:
+    """Output of :class:`TemperatureBinner`; per-bin arrays of length ``n_bins``.
+
+    Attributes
+    ----------
+    edges_c : ndarray of float64
+        ``n_bins + 1`` edges, °C; bins are closed below and open above, ``[lo, hi)``.
+    count : ndarray of int64
+        Samples per bin.
+    temperature_c, time_s : ndarray of float64
+        Mean temperature (°C) and mean time (s) per bin; NaN for empty bins.
+    mean, variance : ndarray of float64, shape (n_bins, n_channels)
+        Mean and sample variance (ddof=1) per bin and channel; NaN where undefined.
+    n_below, n_above, n_nonfinite : int
+        Samples below ``lo_c``, at or above ``hi_c``, and skipped as non-finite.
+    """
+
+    @property
+    def edges_c(self) -> NDArray[np.float64]: ...
+    @property
+    def count(self) -> NDArray[np.int64]: ...
+    @property
+    def temperature_c(self) -> NDArray[np.float64]: ...
+    @property
+    def time_s(self) -> NDArray[np.float64]: ...
+    @property
+    def mean(self) -> NDArray[np.float64]: ...
+    @property
+    def variance(self) -> NDArray[np.float64]: ...
+    @property
+    def n_below(self) -> int: ...
+    @property
+    def n_above(self) -> int: ...
+    @property
+    def n_nonfinite(self) -> int: ...
+
+@final
+class TemperatureBinner:
+    """Fixed-width temperature bins with numerically stable (Welford) statistics.
+
+    Parameters
+    ----------
+    lo_c, hi_c : float, default 0.0 and 60.0
+        Analysis window, °C: ``lo_c <= T < hi_c`` (the paper's 0–60 °C).
+    width_c : float, default 0.5
+        Bin width, °C. The last bin is narrower when the window is not a multiple.
+    n_channels : int, default 3
+        Data channels.
+    """
+
+    def __init__(
+        self, *, lo_c: float = 0.0, hi_c: float = 60.0, width_c: float = 0.5, n_channels: int = 3
+    ) -> None: ...
+    def push(self, time_s: ArrayLike, temperature_c: ArrayLike, channels: ArrayLike) -> None:
+        """Push a chunk of ``n`` samples; rows with a non-finite value are skipped and counted."""
+
+    def merge(self, other: TemperatureBinner) -> None:
+        """Merge another binner of identical configuration (Chan's parallel formula)."""
+
+    def finish(self) -> BinnedStats:
+        """Return per-bin statistics; raises InsufficientDataError if no sample was in the window."""
+
+    @property
+    def n_bins(self) -> int: ...
+    @property
+    def lo_c(self) -> float: ...
+    @property
+    def hi_c(self) -> float: ...
+    @property
+    def width_c(self) -> float: ...
+    @property
+    def n_channels(self) -> int: ...
+
+@final
+class LstsqSolution:
+    """Solution of a weighted least-squares problem.
+
+    Attributes
+    ----------
+    column_names : list of str
+    coefficients : ndarray of float64, shape (p,)
+    covariance : ndarray of float64, shape (p, p)
+        ``sigma² (XᵀWX)⁻¹`` with ``sigma² = residual_sum_squares / dof``; NaN when dof == 0.
+    residual_sum_squares : float
+        Weighted residual sum of squares.
+    dof : int
+        ``n_rows - p``.
+    n_rows : int
+        Rows with non-zero weight.
+    condition_number : float
+        2-norm condition number of ``sqrt(W) X``.
+    condition_number_scaled : float
+        The same after scaling every column to unit norm; it bounds the relative
+        error of the coefficients (about ``condition_number_scaled * eps``).
+    """
+
+    @property
+    def column_names(self) -> list[str]: ...
+    @property
+    def coefficients(self) -> NDArray[np.float64]: ...
+    @property
+    def covariance(self) -> NDArray[np.float64]: ...
+    @property
+    def residual_sum_squares(self) -> float: ...
+    @property
+    def dof(self) -> int: ...
+    @property
+    def n_rows(self) -> int: ...
+    @property
+    def condition_number(self) -> float: ...
+    @property
+    def condition_number_scaled(self) -> float: ...
+
+@final
+class LeastSquares:
+    """Incremental weighted least squares by Givens rotations.
+
+    Parameters
+    ----------
+    n_columns : int
+        Number of unknowns, 1 to 64.
+    column_names : list of str, optional
+        Names used in results and errors; default ``x0, x1, ...``.
+
+    Notes
+    -----
+    The state is the triangular factor ``R`` of the weighted design, ``Qᵀy`` and the
+    residual sum of squares, so memory does not grow with the number of rows and
+    :meth:`merge` is exact algebra. Non-finite input raises NonFiniteError.
+    """
+
+    def __init__(self, n_columns: int, *, column_names: list[str] | None = None) -> None: ...
+    def push(
+        self, design: ArrayLike, response: ArrayLike, weights: ArrayLike | None = None
+    ) -> None:
+        """Push rows: ``design`` (n, p), ``response`` (n), ``weights`` (n, >= 0) or None for 1."""
+
+    def merge(self, other: LeastSquares) -> None:
+        """Merge another problem with the same columns."""
+
+    def finish(self) -> LstsqSolution:
+        """Solve.
+
+        Raises
+        ------
+        accelcore.InsufficientDataError
+            With no rows, or fewer rows than columns.
+        accelcore.SingularSystemError
+            If some columns cannot be identified; ``.columns`` names them.
+        """
+
+    @property
+    def n_columns(self) -> int: ...
+    @property
+    def n_rows(self) -> int: ...

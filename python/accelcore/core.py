@@ -1,0 +1,34 @@
+"""The streaming kernels of the Rust core.
+
+Each kernel is a small object with ``push`` (a chunk of samples), ``merge``
+(another accumulator of the same configuration) and ``finish`` (the result).
+Results never depend on how the input was chunked, and ``a.merge(b)`` gives the
+result of one pass over ``a``'s input followed by ``b``'s.
+
+- :class:`Decimator`: time-aligned block means (20 Hz to 2 Hz by default).
+- :class:`TemperatureBinner`: per-temperature-bin count, mean and variance.
+- :class:`LeastSquares`: incremental weighted least squares (Givens QR).
+
+All computation runs in Rust with the GIL released. ``accelcore.reference``
+holds an independent NumPy implementation of the same specification.
+"""
+
+from __future__ import annotations
+
+from accelcore._accelcore import (
+    BinnedStats,
+    DecimatedBlocks,
+    Decimator,
+    LeastSquares,
+    LstsqSolution,
+    TemperatureBinner,
+)
+
+__all__ = [
+    "BinnedStats",
+    "DecimatedBlocks",
+    "Decimator",
+    "LeastSquares",
+    "LstsqSolution",
+    "TemperatureBinner",
+]

@@ -1,0 +1,90 @@
+"""The accelcore exception hierarchy.
+
+Every error accelcore raises on purpose is a subclass of :class:`AccelcoreError`.
+Errors about data or arguments are also :class:`ValueError`; errors about files
+that cannot be opened are also :class:`OSError`. The Rust core's typed errors are
+mapped onto these classes in one place (``rust/accelcore-py/src/errors.rs``) and
+carry the values that explain them as attributes, so code never parses messages.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "AccelcoreError",
+    "AccelcoreIOError",
+    "CalibrationFileError",
+    "IncompatibleError",
+    "InsufficientDataError",
+    "NonFiniteError",
+    "ParameterError",
+    "ParseError",
+    "SessionFormatError",
+    "ShapeError",
+    "SingularSystemError",
+    "TimeOrderError",
+]
+
+
+class AccelcoreError(Exception):
+    """Base class of every error raised by accelcore."""
+
+
+class ParameterError(AccelcoreError, ValueError):
+    """A configuration value is out of its valid range (attribute ``parameter``)."""
+
+    parameter: str
+
+
+class ShapeError(AccelcoreError, ValueError):
+    """Input arrays do not have the expected lengths or number of columns."""
+
+
+class TimeOrderError(AccelcoreError, ValueError):
+    """Time stamps go backwards or repeat (attributes ``index``, ``previous_s``, ``time_s``)."""
+
+    index: int
+    previous_s: float
+    time_s: float
+
+
+class NonFiniteError(AccelcoreError, ValueError):
+    """A value that must be finite is NaN or infinite (attributes ``row``, ``column``)."""
+
+    row: int
+    column: int
+
+
+class InsufficientDataError(AccelcoreError, ValueError):
+    """Not enough data for the requested result (including empty input)."""
+
+
+class IncompatibleError(AccelcoreError, ValueError):
+    """Two accumulators or objects of different configuration were combined."""
+
+
+class SingularSystemError(AccelcoreError, ValueError):
+    """A least-squares design cannot identify some terms (attribute ``columns``)."""
+
+    columns: list[str]
+
+
+class ParseError(AccelcoreError, ValueError):
+    """A file could not be parsed (attributes ``path``, ``line``, ``column``, 1-based)."""
+
+    path: str
+    line: int
+    column: int
+
+
+class SessionFormatError(AccelcoreError, ValueError):
+    """A session folder or its ``session.toml`` does not follow the session format."""
+
+
+class CalibrationFileError(AccelcoreError, ValueError):
+    """A calibration file is corrupted, truncated, of another version or another sensor."""
+
+
+class AccelcoreIOError(AccelcoreError, OSError):
+    """A file could not be opened or read (attribute ``path``)."""
+
+    path: str

@@ -1,0 +1,149 @@
+//! `Decimator` and its result, `DecimatedBlocks`.
+
+use accelcore_core::{DecimatedBlocks, Decimator, DecimatorConfig};
+use ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+
+use crate::gateway::{run_detached, slice_or_copy, In1, In2};
+
+/// Time-aligned block-mean decimator (see `accelcore.core.Decimator` in the stubs).
+#[pyclass(name = "Decimator", module = "accelcore.core")]
+pub(crate) struct PyDecimator {
+    pub(crate) inner: Decimator,
+}
+
+/// Decimated blocks: arrays with one row per kept block.
+#[pyclass(name = "DecimatedBlocks", module = "accelcore.core", frozen, get_all)]
+pub(crate) struct PyDecimatedBlocks {
+    block_index: Py<PyArray1<i64>>,
+    count: Py<PyArray1<i64>>,
+    time_s: Py<PyArray1<f64>>,
+    temperature_c: Py<PyArray1<f64>>,
+    channels: Py<PyArray2<f64>>,
+}
+
+pub(crate) fn blocks_to_py(py: Python<'_>, blocks: DecimatedBlocks) -> PyResult<PyDecimatedBlocks> {
+    let n = blocks.block_index.len();
+    let channels = Array2::from_shape_vec((n, blocks.n_channels), blocks.channels)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    let count: Vec<i64> = blocks.count.iter().map(|&c| c as i64).collect();
+    Ok(PyDecimatedBlocks {
+        block_index: blocks.block_index.into_pyarray(py).unbind(),
+        count: count.into_pyarray(py).unbind(),
+        time_s: blocks.time_s.into_pyarray(py).unbind(),
+        temperature_c: blocks.temperature_c.into_pyarray(py).unbind(),
+        channels: channels.into_pyarray(py).unbind(),
+    })
+}
+
+#[pymethods]
+impl PyDecimatedBlocks {
+    fn __len__(&self, py: Python<'_>) -> usize {
+        self.block_index.bind(py).len()
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> String {
+        format!("DecimatedBlocks(n_blocks={})", self.block_index.bind(py).len())
+    }
+}
+
+#[pymethods]
+impl PyDecimator {
+    #[new]
+    #[pyo3(signature = (*, factor = 10, rate_hz = 20.0, n_channels = 3, min_count = 1, t0_s = None))]
+    fn new(
+        factor: usize,
+        rate_hz: f64,
+        n_channels: usize,
+        min_count: usize,
+        t0_s: Option<f64>,
+    ) -> PyResult<Self> {
+        let config = DecimatorConfig { factor, rate_hz, n_channels, min_count, t0_s };
+        let inner = Decimator::new(config).map_err(crate::errors::CoreError)?;
+        Ok(Self { inner })
+    }
+
+    /// Push a chunk of samples.
+    fn push(
+        &mut self,
+        py: Python<'_>,
+        time_s: In1<'_>,
+        temperature_c: In1<'_>,
+        channels: In2<'_>,
+    ) -> PyResult<()> {
+        let (time_s, temperature_c) = (slice_or_copy(&time_s), slice_or_copy(&temperature_c));
+        let channels = channels.as_array();
+        let inner = &mut self.inner;
+        run_detached(py, || inner.push(&time_s, &temperature_c, channels))
+    }
+
+    /// Merge another decimator's state into this one.
+    fn merge(&mut self, py: Python<'_>, other: PyRef<'_, PyDecimator>) -> PyResult<()> {
+        let other = other.inner.clone();
+        let inner = &mut self.inner;
+        run_detached(py, || inner.merge(&other))
+    }
+
+    /// Blocks with at least `min_count` valid samples.
+    fn finish(&self, py: Python<'_>) -> PyResult<PyDecimatedBlocks> {
+        let inner = &self.inner;
+        let blocks = run_detached(py, || inner.finish())?;
+        blocks_to_py(py, blocks)
+    }
+
+    /// Remove and return the blocks that can no longer change.
+    fn drain_completed(&mut self, py: Python<'_>) -> PyResult<PyDecimatedBlocks> {
+        let inner = &mut self.inner;
+        let blocks = run_detached(py, || Ok(inner.drain_completed()))?;
+        blocks_to_py(py, blocks)
+    }
+
+    #[getter]
+    fn n_samples(&self) -> u64 {
+        self.inner.n_samples()
+    }
+
+    #[getter]
+    fn n_skipped_nonfinite(&self) -> u64 {
+        self.inner.n_skipped_nonfinite()
+    }
+
+    #[getter]
+    fn factor(&self) -> usize {
+        self.inner.config().factor
+    }
+
+    #[getter]
+    fn rate_hz(&self) -> f64 {
+        self.inner.config().rate_hz
+    }
+
+    #[getter]
+    fn n_channels(&self) -> usize {
+        self.inner.config().n_channels
+    }
+
+    #[getter]
+    fn min_count(&self) -> usize {
+        self.inner.config().min_count
+    }
+
+    #[getter]
+    fn t0_s(&self) -> Option<f64> {
+        self.inner.config().t0_s
+    }
+
+    fn __repr__(&self) -> String {
+        let c = self.inner.config();
+        format!(
+            "Decimator(factor={}, rate_hz={}, n_channels={}, min_count={}, t0_s={:?}, n_samples={})",
+            c.factor,
+            c.rate_hz,
+            c.n_channels,
+            c.min_count,
+            c.t0_s,
+            self.inner.n_samples()
+        )
+    }
+}

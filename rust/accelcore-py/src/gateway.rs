@@ -1,0 +1,33 @@
+//! One gateway across the boundary: borrow inputs, run the core detached from
+//! the interpreter (the GIL is released for the whole closure) and map errors.
+//! Every long-running binding goes through [`run_detached`], so the threading
+//! and error policy is a one-file change.
+
+use std::borrow::Cow;
+
+use numpy::{AllowTypeChange, PyArrayLike1, PyArrayLike2};
+use pyo3::prelude::*;
+
+use crate::errors::CoreError;
+
+/// Run `work` with the GIL released and turn a core error into its exception.
+pub(crate) fn run_detached<T, F>(py: Python<'_>, work: F) -> PyResult<T>
+where
+    T: Send,
+    F: FnOnce() -> accelcore_core::Result<T> + Send,
+{
+    py.detach(work).map_err(|e| CoreError(e).into())
+}
+
+/// A 1-D float64 input: any array-like, converted to float64 if needed.
+pub(crate) type In1<'py> = PyArrayLike1<'py, f64, AllowTypeChange>;
+/// A 2-D float64 input: any array-like, converted to float64 if needed.
+pub(crate) type In2<'py> = PyArrayLike2<'py, f64, AllowTypeChange>;
+
+/// Borrow a contiguous 1-D array as a slice, or make one documented copy of a strided one.
+pub(crate) fn slice_or_copy<'a>(array: &'a In1<'_>) -> Cow<'a, [f64]> {
+    match array.as_slice() {
+        Ok(slice) => Cow::Borrowed(slice),
+        Err(_) => Cow::Owned(array.as_array().iter().copied().collect()),
+    }
+}

@@ -1,0 +1,29 @@
+//! PyO3 bindings of `accelcore-core`. This crate only converts arrays,
+//! releases the GIL around compute (through `gateway::run_detached`) and maps
+//! core errors to the Python exception hierarchy (`errors.rs`).
+
+mod binning;
+mod decimate;
+mod errors;
+mod gateway;
+mod regression;
+
+use pyo3::prelude::*;
+
+/// The compiled extension `accelcore._accelcore`; users import `accelcore`.
+#[pymodule]
+mod _accelcore {
+    #[pymodule_export]
+    use super::binning::{PyBinnedStats, PyTemperatureBinner};
+    #[pymodule_export]
+    use super::decimate::{PyDecimatedBlocks, PyDecimator};
+    #[pymodule_export]
+    use super::regression::{PyLeastSquares, PyLstsqSolution};
+
+    use pyo3::prelude::*;
+
+    #[pymodule_init]
+    fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {
+        m.add("__version__", env!("CARGO_PKG_VERSION"))
+    }
+}

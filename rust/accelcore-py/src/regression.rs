@@ -1,0 +1,115 @@
+//! `LeastSquares` and its result, `LstsqSolution`.
+
+use accelcore_core::{LeastSquares, LstsqSolution};
+use ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::prelude::*;
+
+use crate::gateway::{run_detached, slice_or_copy, In1, In2};
+
+/// Incremental weighted least squares (see `accelcore.core.LeastSquares` in the stubs).
+#[pyclass(name = "LeastSquares", module = "accelcore.core")]
+pub(crate) struct PyLeastSquares {
+    pub(crate) inner: LeastSquares,
+}
+
+/// Solution of a least-squares problem.
+#[pyclass(name = "LstsqSolution", module = "accelcore.core", frozen, get_all)]
+pub(crate) struct PyLstsqSolution {
+    column_names: Vec<String>,
+    coefficients: Py<PyArray1<f64>>,
+    covariance: Py<PyArray2<f64>>,
+    residual_sum_squares: f64,
+    dof: u64,
+    n_rows: u64,
+    condition_number: f64,
+    condition_number_scaled: f64,
+}
+
+pub(crate) fn solution_to_py(py: Python<'_>, s: LstsqSolution) -> PyResult<PyLstsqSolution> {
+    let p = s.coefficients.len();
+    let covariance = Array2::from_shape_vec((p, p), s.covariance)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    Ok(PyLstsqSolution {
+        column_names: s.column_names,
+        coefficients: s.coefficients.into_pyarray(py).unbind(),
+        covariance: covariance.into_pyarray(py).unbind(),
+        residual_sum_squares: s.residual_sum_squares,
+        dof: s.dof,
+        n_rows: s.n_rows,
+        condition_number: s.condition_number,
+        condition_number_scaled: s.condition_number_scaled,
+    })
+}
+
+#[pymethods]
+impl PyLstsqSolution {
+    fn __repr__(&self) -> String {
+        format!(
+            "LstsqSolution(columns={:?}, n_rows={}, dof={}, rss={:.6e}, cond={:.3e})",
+            self.column_names,
+            self.n_rows,
+            self.dof,
+            self.residual_sum_squares,
+            self.condition_number
+        )
+    }
+}
+
+#[pymethods]
+impl PyLeastSquares {
+    #[new]
+    #[pyo3(signature = (n_columns, *, column_names = None))]
+    fn new(n_columns: usize, column_names: Option<Vec<String>>) -> PyResult<Self> {
+        let inner = LeastSquares::new(n_columns, column_names).map_err(crate::errors::CoreError)?;
+        Ok(Self { inner })
+    }
+
+    /// Push rows of the design with their responses and optional weights.
+    #[pyo3(signature = (design, response, weights = None))]
+    fn push(
+        &mut self,
+        py: Python<'_>,
+        design: In2<'_>,
+        response: In1<'_>,
+        weights: Option<In1<'_>>,
+    ) -> PyResult<()> {
+        let response = slice_or_copy(&response);
+        let weights = weights.as_ref().map(slice_or_copy);
+        let design = design.as_array();
+        let inner = &mut self.inner;
+        run_detached(py, || inner.push(design, &response, weights.as_deref()))
+    }
+
+    /// Merge another problem with the same columns.
+    fn merge(&mut self, py: Python<'_>, other: PyRef<'_, PyLeastSquares>) -> PyResult<()> {
+        let other = other.inner.clone();
+        let inner = &mut self.inner;
+        run_detached(py, || inner.merge(&other))
+    }
+
+    /// Solve.
+    fn finish(&self, py: Python<'_>) -> PyResult<PyLstsqSolution> {
+        let inner = &self.inner;
+        let solution = run_detached(py, || inner.finish())?;
+        solution_to_py(py, solution)
+    }
+
+    #[getter]
+    fn n_columns(&self) -> usize {
+        self.inner.n_columns()
+    }
+
+    #[getter]
+    fn n_rows(&self) -> u64 {
+        self.inner.n_rows()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "LeastSquares(n_columns={}, n_rows={})",
+            self.inner.n_columns(),
+            self.inner.n_rows()
+        )
+    }
+}
