@@ -286,3 +286,83 @@ class LeastSquares:
     def n_columns(self) -> int: ...
     @property
     def n_rows(self) -> int: ...
+
+@final
+class RunData:
+    """One log file read and decimated by :func:`read_run`."""
+
+    @property
+    def header(self) -> list[str]: ...
+    @property
+    def channel_names(self) -> list[str]: ...
+    @property
+    def blocks(self) -> DecimatedBlocks: ...
+    @property
+    def n_rows(self) -> int: ...
+    @property
+    def n_skipped_nonfinite(self) -> int: ...
+    @property
+    def n_truncated_rows(self) -> int: ...
+    @property
+    def first_time_s(self) -> float: ...
+    @property
+    def last_time_s(self) -> float: ...
+    @property
+    def n_gaps(self) -> int: ...
+    @property
+    def max_interval_s(self) -> float: ...
+    @property
+    def channel_min(self) -> NDArray[np.float64]: ...
+    @property
+    def channel_max(self) -> NDArray[np.float64]: ...
+    @property
+    def n_at_min(self) -> NDArray[np.uint64]: ...
+    @property
+    def n_at_max(self) -> NDArray[np.uint64]: ...
+
+def read_run(
+    path: str,
+    /,
+    *,
+    delimiter: str = ",",
+    time_column: str = "time_s",
+    temperature_column: str = "temp_c",
+    channel_columns: list[str] = ...,
+    keep_extra_columns: bool = True,
+    time_scale_to_s: float = 1.0,
+    factor: int = 10,
+    rate_hz: float = 20.0,
+    min_count: int = 1,
+) -> RunData:
+    """Read one delimited log and decimate it on the fly; the file is never held whole.
+
+    Channels are the required ``channel_columns`` then, with ``keep_extra_columns``,
+    every other column. Errors name the file, the 1-based line and column.
+
+    Raises
+    ------
+    accelcore.ParseError
+        Missing columns, a non-numeric cell, a wrong field count, time going backwards.
+    accelcore.AccelcoreIOError
+        The file cannot be opened or read.
+    """
+
+def compensate(
+    raw: ArrayLike, basis: ArrayLike, offset_coefficients: ArrayLike, gain_coefficients: ArrayLike
+) -> NDArray[np.float64]:
+    """Turn raw ``(n, 3)`` readings into acceleration in g.
+
+    The model of axis ``a`` is ``v_a = O[a] · B + Σ_b (G[3a+b] · B) g_b`` with basis
+    values ``B`` (n, K) per sample, offset coefficients ``O`` (3, K) and gain
+    coefficients ``G`` (9, K); the 3x3 system is solved per sample. A sample with a
+    non-finite input gives NaN; a singular gain matrix raises NonFiniteError.
+    """
+
+def first_order_lag(
+    time_s: ArrayLike, temperature_c: ArrayLike, tau_s: float, /, initial: float | None = None
+) -> NDArray[np.float64]:
+    """First-order lag of a temperature series with time constant ``tau_s`` (s).
+
+    ``y[i] = y[i-1] + (1 - exp(-(t[i]-t[i-1])/tau)) (x[i] - y[i-1])``, ``y[0] = initial``
+    or ``x[0]``: what a die trailing the logged probe sees. ``tau_s = 0`` returns the input.
+    """

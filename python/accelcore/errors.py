@@ -12,7 +12,9 @@ from __future__ import annotations
 __all__ = [
     "AccelcoreError",
     "AccelcoreIOError",
+    "AccelcoreWarning",
     "CalibrationFileError",
+    "DataQualityWarning",
     "IncompatibleError",
     "InsufficientDataError",
     "NonFiniteError",
@@ -21,6 +23,7 @@ __all__ = [
     "SessionFormatError",
     "ShapeError",
     "SingularSystemError",
+    "TemperatureRangeWarning",
     "TimeOrderError",
 ]
 
@@ -88,3 +91,15 @@ class AccelcoreIOError(AccelcoreError, OSError):
     """A file could not be opened or read (attribute ``path``)."""
 
     path: str
+
+
+class AccelcoreWarning(UserWarning):
+    """Base class of accelcore's warnings."""
+
+
+class TemperatureRangeWarning(AccelcoreWarning):
+    """A calibration is used outside the temperature range it was fitted on."""
+
+
+class DataQualityWarning(AccelcoreWarning):
+    """Something in the data deserves a look (gaps, rate, clipping, outliers)."""

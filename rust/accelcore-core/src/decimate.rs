@@ -1,5 +1,44 @@
-//! Streaming decimator (CONTRACT PLACEHOLDER: bodies to be written).
-use crate::error::Result;
+//! Streaming, time-aligned block-mean decimator.
+//!
+//! A [`Decimator`] turns a stream of `(time_s, temperature_c, channels…)` rows
+//! sampled at about `rate_hz` into one averaged row per block of
+//! `factor / rate_hz` seconds (20 Hz → 2 Hz with the defaults).
+//!
+//! # Semantics
+//!
+//! - **Block grid.** The grid is anchored at `t0` (config `t0_s`, or, when that
+//!   is `None`, the time of the first row with a finite time ever pushed; the
+//!   value found is then reported by [`Decimator::config`]). A sample at time
+//!   `t` belongs to block
+//!   `k = ((t - t0) * rate_hz / factor as f64).floor() as i64`, evaluated in
+//!   exactly this order. Block `k` covers
+//!   `[t0 + k·factor/rate_hz, t0 + (k+1)·factor/rate_hz)`, so a gap in the
+//!   stream leaves later blocks on the same grid (no re-anchoring).
+//! - **Block output.** Each block keeps its number of valid samples and plain
+//!   `f64` sums (in row order) of time, temperature and each channel; the output
+//!   row is `sum / count`.
+//! - **NaN policy: skip.** A row is *valid* iff its time, temperature and every
+//!   channel value are finite. Invalid rows are skipped and counted in
+//!   [`Decimator::n_skipped_nonfinite`]; [`Decimator::n_samples`] counts all rows.
+//! - **Time order.** Times must be strictly increasing over all rows whose time
+//!   is finite (including rows that are otherwise invalid), across pushes.
+//!   Otherwise [`Error::TimeNotIncreasing`] reports the zero-based index of the
+//!   row in the whole pushed stream. A chunk is checked completely before any
+//!   state changes, so a failed `push` leaves the decimator as it was.
+//! - **`min_count`.** Blocks with fewer valid samples than `min_count` are left
+//!   out of every output ([`Decimator::finish`], [`Decimator::drain_completed`]).
+//! - **Empty input.** Chunks with zero rows are accepted and change nothing.
+//!   [`Decimator::finish`] returns [`Error::Empty`] when no block is kept.
+//! - **Chunking and merging.** The result of `finish` does not depend on how the
+//!   stream was cut into `push` calls (bit for bit). Pieces of one stream built
+//!   separately can be combined with [`Decimator::merge`] (equal to one pass up
+//!   to the rounding of the sums of a block that straddles the cut). Pieces must
+//!   share `t0`: pass `t0_s` explicitly when splitting a log.
+//! - **Streaming output.** [`Decimator::drain_completed`] hands out the blocks
+//!   that can no longer change and frees their memory. A drained decimator must
+//!   not be merged with a piece that precedes it in time (this is rejected with
+//!   [`Error::Incompatible`]).
+use crate::error::{Error, Result};
 use ndarray::ArrayView2;
 
 /// Configuration of a [`Decimator`].
@@ -19,8 +58,47 @@ pub struct DecimatorConfig {
 
 impl Default for DecimatorConfig {
     fn default() -> Self {
-        Self { factor: 10, rate_hz: 20.0, n_channels: 3, min_count: 1, t0_s: None }
+        Self {
+            factor: 10,
+            rate_hz: 20.0,
+            n_channels: 3,
+            min_count: 1,
+            t0_s: None,
+        }
     }
+}
+
+impl DecimatorConfig {
+    fn validate(&self) -> Result<()> {
+        if self.factor < 1 {
+            return Err(invalid(
+                "factor",
+                format!("must be >= 1, got {}", self.factor),
+            ));
+        }
+        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0) {
+            return Err(invalid(
+                "rate_hz",
+                format!("must be finite and > 0, got {}", self.rate_hz),
+            ));
+        }
+        if self.min_count < 1 {
+            return Err(invalid(
+                "min_count",
+                format!("must be >= 1, got {}", self.min_count),
+            ));
+        }
+        if let Some(t0) = self.t0_s {
+            if !t0.is_finite() {
+                return Err(invalid("t0_s", format!("must be finite, got {t0}")));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn invalid(name: &'static str, reason: String) -> Error {
+    Error::InvalidParameter { name, reason }
 }
 
 /// Output of a decimator: one row per kept block, in increasing block order.
@@ -40,51 +118,717 @@ pub struct DecimatedBlocks {
     pub channels: Vec<f64>,
 }
 
+impl DecimatedBlocks {
+    /// Number of blocks (rows).
+    pub fn len(&self) -> usize {
+        self.block_index.len()
+    }
+
+    /// `true` when there is no block.
+    pub fn is_empty(&self) -> bool {
+        self.block_index.is_empty()
+    }
+
+    fn with_capacity(n_channels: usize, n: usize) -> Self {
+        Self {
+            n_channels,
+            block_index: Vec::with_capacity(n),
+            count: Vec::with_capacity(n),
+            time_s: Vec::with_capacity(n),
+            temperature_c: Vec::with_capacity(n),
+            channels: Vec::with_capacity(n.saturating_mul(n_channels)),
+        }
+    }
+
+    /// Append the mean row of one block (caller guarantees `count >= 1`).
+    fn push_mean(&mut self, k: i64, count: u64, sum_t: f64, sum_temp: f64, sum_ch: &[f64]) {
+        let n = count as f64;
+        self.block_index.push(k);
+        self.count.push(count);
+        self.time_s.push(sum_t / n);
+        self.temperature_c.push(sum_temp / n);
+        self.channels.extend(sum_ch.iter().map(|s| s / n));
+    }
+}
+
+/// Per-block sums, column-wise; sorted by strictly increasing block index.
+#[derive(Debug, Clone, Default)]
+struct BlockSums {
+    index: Vec<i64>,
+    count: Vec<u64>,
+    sum_time: Vec<f64>,
+    sum_temp: Vec<f64>,
+    /// Row-major (n_blocks x n_channels).
+    sum_ch: Vec<f64>,
+}
+
+impl BlockSums {
+    fn len(&self) -> usize {
+        self.index.len()
+    }
+
+    fn push(&mut self, k: i64, count: u64, sum_t: f64, sum_temp: f64, sum_ch: &[f64]) {
+        self.index.push(k);
+        self.count.push(count);
+        self.sum_time.push(sum_t);
+        self.sum_temp.push(sum_temp);
+        self.sum_ch.extend_from_slice(sum_ch);
+    }
+
+    fn channels(&self, i: usize, nc: usize) -> &[f64] {
+        &self.sum_ch[i * nc..(i + 1) * nc]
+    }
+}
+
+/// The block that can still receive samples (the block of the latest valid sample).
+#[derive(Debug, Clone)]
+struct OpenBlock {
+    index: i64,
+    count: u64,
+    sum_time: f64,
+    sum_temp: f64,
+    /// Length n_channels; allocated once per decimator.
+    sum_ch: Vec<f64>,
+}
+
 /// Time-aligned block-mean decimator.
+///
+/// See the [module docs](self) for the exact semantics.
 #[derive(Debug, Clone)]
 pub struct Decimator {
     config: DecimatorConfig,
+    /// Completed blocks, every index below `open.index`.
+    closed: BlockSums,
+    /// Block of the latest valid sample; `open.count == 0` means there is none.
+    open: OpenBlock,
+    /// Time of the latest row with finite time (for the order check).
+    last_time: Option<f64>,
+    /// Time range of the valid samples (for merge).
+    valid_range: Option<(f64, f64)>,
+    n_samples: u64,
+    n_skipped: u64,
+    /// Whether `drain_completed` has removed any block.
+    drained: bool,
 }
 
 impl Decimator {
     /// Validate the configuration and create an empty decimator.
     pub fn new(config: DecimatorConfig) -> Result<Self> {
-        let _ = config;
-        todo!()
+        config.validate()?;
+        let mut sum_ch = Vec::new();
+        sum_ch.try_reserve_exact(config.n_channels).map_err(|_| {
+            invalid(
+                "n_channels",
+                format!("{} channels do not fit in memory", config.n_channels),
+            )
+        })?;
+        sum_ch.resize(config.n_channels, 0.0);
+        let open = OpenBlock {
+            index: 0,
+            count: 0,
+            sum_time: 0.0,
+            sum_temp: 0.0,
+            sum_ch,
+        };
+        Ok(Self {
+            config,
+            closed: BlockSums::default(),
+            open,
+            last_time: None,
+            valid_range: None,
+            n_samples: 0,
+            n_skipped: 0,
+            drained: false,
+        })
     }
+
     /// The configuration (with `t0_s` filled in once known).
     pub fn config(&self) -> &DecimatorConfig {
         &self.config
     }
+
     /// Push a chunk. `channels` is (n, n_channels).
+    ///
+    /// `time_s`, `temperature_c` and the rows of `channels` must have the same
+    /// length ([`Error::Shape`]); `channels` may have any strides. Rows with a
+    /// non-finite value are skipped; finite times must be strictly increasing
+    /// ([`Error::TimeNotIncreasing`]). On error nothing is changed.
     pub fn push(
         &mut self,
         time_s: &[f64],
         temperature_c: &[f64],
         channels: ArrayView2<'_, f64>,
     ) -> Result<()> {
-        let _ = (time_s, temperature_c, channels);
-        todo!()
+        check_shapes(time_s, temperature_c, &channels, self.config.n_channels)?;
+        let n = time_s.len();
+        if n == 0 {
+            return Ok(());
+        }
+
+        // Pass 1: check the time order without touching the state.
+        let mut last = self.last_time;
+        for (i, &t) in time_s.iter().enumerate() {
+            if !t.is_finite() {
+                continue;
+            }
+            if let Some(prev) = last {
+                if t <= prev {
+                    return Err(Error::TimeNotIncreasing {
+                        index: self.n_samples.saturating_add(i as u64),
+                        previous_s: prev,
+                        time_s: t,
+                    });
+                }
+            }
+            last = Some(t);
+        }
+
+        // Pass 2: accumulate.
+        if self.config.t0_s.is_none() {
+            self.config.t0_s = time_s.iter().copied().find(|t| t.is_finite());
+        }
+        self.last_time = last;
+        self.n_samples = self.n_samples.saturating_add(n as u64);
+        let Some(t0) = self.config.t0_s else {
+            // No finite time anywhere so far: every row is invalid.
+            self.n_skipped = self.n_skipped.saturating_add(n as u64);
+            return Ok(());
+        };
+        // Hot loop, specialised on the channel count so the open block's sums
+        // live in a fixed-size array.
+        let (t, temp, ch) = (time_s, temperature_c, &channels);
+        let (skipped, first, last_valid) = match self.config.n_channels {
+            0 => self.accumulate(t0, [0.0; 0], t, temp, ch),
+            1 => self.accumulate(t0, [0.0; 1], t, temp, ch),
+            2 => self.accumulate(t0, [0.0; 2], t, temp, ch),
+            3 => self.accumulate(t0, [0.0; 3], t, temp, ch),
+            4 => self.accumulate(t0, [0.0; 4], t, temp, ch),
+            5 => self.accumulate(t0, [0.0; 5], t, temp, ch),
+            6 => self.accumulate(t0, [0.0; 6], t, temp, ch),
+            nc => self.accumulate(t0, vec![0.0; nc], t, temp, ch),
+        };
+        self.n_skipped = self.n_skipped.saturating_add(skipped);
+        if !last_valid.is_nan() {
+            self.valid_range = Some(match self.valid_range {
+                Some((lo, _)) => (lo, last_valid),
+                None => (first, last_valid),
+            });
+        }
+        Ok(())
     }
+
     /// Merge another decimator of the same configuration (pieces of one stream).
+    ///
+    /// `factor`, `rate_hz`, `n_channels` and `min_count` must be equal, and so
+    /// must `t0` when both pieces know it (bitwise); a piece without `t0` adopts
+    /// the other's. The valid samples of the two pieces must not overlap in
+    /// time (either order is fine). Blocks with the same index are combined.
+    /// A drained decimator cannot absorb a piece that precedes it.
+    /// All failures are [`Error::Incompatible`] and leave `self` unchanged.
     pub fn merge(&mut self, other: &Decimator) -> Result<()> {
-        let _ = other;
-        todo!()
+        let (a, b) = (&self.config, &other.config);
+        if a.factor != b.factor {
+            return Err(incompatible(format!(
+                "factor differs: {} vs {}",
+                a.factor, b.factor
+            )));
+        }
+        if a.rate_hz != b.rate_hz {
+            return Err(incompatible(format!(
+                "rate_hz differs: {} vs {}",
+                a.rate_hz, b.rate_hz
+            )));
+        }
+        if a.n_channels != b.n_channels {
+            return Err(incompatible(format!(
+                "n_channels differs: {} vs {}",
+                a.n_channels, b.n_channels
+            )));
+        }
+        if a.min_count != b.min_count {
+            return Err(incompatible(format!(
+                "min_count differs: {} vs {}",
+                a.min_count, b.min_count
+            )));
+        }
+        let t0 = match (a.t0_s, b.t0_s) {
+            (Some(x), Some(y)) if x.to_bits() != y.to_bits() => {
+                return Err(incompatible(format!(
+                    "block grids differ: t0 = {x} s vs {y} s; pass t0_s explicitly \
+                     when splitting a log into pieces"
+                )));
+            }
+            (x, y) => x.or(y),
+        };
+        // `self_first`: whether self's valid samples come before other's.
+        let self_first = match (self.valid_range, other.valid_range) {
+            (Some((lo_a, hi_a)), Some((lo_b, hi_b))) => {
+                if hi_a < lo_b {
+                    true
+                } else if hi_b < lo_a {
+                    false
+                } else {
+                    return Err(incompatible(format!(
+                        "time ranges overlap: [{lo_a}, {hi_a}] s and [{lo_b}, {hi_b}] s"
+                    )));
+                }
+            }
+            _ => true,
+        };
+        let later_drained = if self_first {
+            other.drained
+        } else {
+            self.drained
+        };
+        if later_drained && self.valid_range.is_some() && other.valid_range.is_some() {
+            return Err(incompatible(
+                "the later piece has been drained; merge pieces before draining".to_string(),
+            ));
+        }
+
+        // Combine the two sorted block lists (closed + open of each).
+        let nc = self.config.n_channels;
+        let left = self.all_sums();
+        let right = other.all_sums();
+        let mut merged = BlockSums::default();
+        let (mut i, mut j) = (0, 0);
+        while i < left.len() || j < right.len() {
+            let take_left = j >= right.len() || (i < left.len() && left.index[i] < right.index[j]);
+            let take_right = i >= left.len() || (j < right.len() && right.index[j] < left.index[i]);
+            if take_left {
+                merged.push(
+                    left.index[i],
+                    left.count[i],
+                    left.sum_time[i],
+                    left.sum_temp[i],
+                    left.channels(i, nc),
+                );
+                i += 1;
+            } else if take_right {
+                merged.push(
+                    right.index[j],
+                    right.count[j],
+                    right.sum_time[j],
+                    right.sum_temp[j],
+                    right.channels(j, nc),
+                );
+                j += 1;
+            } else {
+                // Same block index in both pieces: earlier piece's sums first.
+                let (e, ei, l, li) = if self_first {
+                    (&left, i, &right, j)
+                } else {
+                    (&right, j, &left, i)
+                };
+                merged.index.push(e.index[ei]);
+                merged.count.push(e.count[ei].saturating_add(l.count[li]));
+                merged.sum_time.push(e.sum_time[ei] + l.sum_time[li]);
+                merged.sum_temp.push(e.sum_temp[ei] + l.sum_temp[li]);
+                merged.sum_ch.extend(
+                    e.channels(ei, nc)
+                        .iter()
+                        .zip(l.channels(li, nc))
+                        .map(|(x, y)| x + y),
+                );
+                i += 1;
+                j += 1;
+            }
+        }
+
+        // The last block becomes the open one.
+        let mut open = OpenBlock {
+            index: 0,
+            count: 0,
+            sum_time: 0.0,
+            sum_temp: 0.0,
+            sum_ch: vec![0.0; nc],
+        };
+        if let Some(&index) = merged.index.last() {
+            let last = merged.len() - 1;
+            open.index = index;
+            open.count = merged.count[last];
+            open.sum_time = merged.sum_time[last];
+            open.sum_temp = merged.sum_temp[last];
+            open.sum_ch.copy_from_slice(merged.channels(last, nc));
+            merged.index.truncate(last);
+            merged.count.truncate(last);
+            merged.sum_time.truncate(last);
+            merged.sum_temp.truncate(last);
+            merged.sum_ch.truncate(last * nc);
+        }
+
+        self.config.t0_s = t0;
+        self.closed = merged;
+        self.open = open;
+        self.last_time = match (self.last_time, other.last_time) {
+            (Some(x), Some(y)) => Some(x.max(y)),
+            (x, y) => x.or(y),
+        };
+        self.valid_range = match (self.valid_range, other.valid_range) {
+            (Some((la, ha)), Some((lb, hb))) => Some((la.min(lb), ha.max(hb))),
+            (x, y) => x.or(y),
+        };
+        self.n_samples = self.n_samples.saturating_add(other.n_samples);
+        self.n_skipped = self.n_skipped.saturating_add(other.n_skipped);
+        self.drained |= other.drained;
+        Ok(())
     }
+
     /// Remove and return all blocks that can no longer receive samples (all but the open one).
+    ///
+    /// The open block is the block of the latest valid sample; every block
+    /// with a lower index is removed. Only removed blocks with at least
+    /// `min_count` samples are returned. Afterwards, [`Decimator::finish`]
+    /// reports only the blocks not yet drained. A drained decimator must not
+    /// be merged with a piece that precedes it (such a merge is rejected).
     pub fn drain_completed(&mut self) -> DecimatedBlocks {
-        todo!()
+        let nc = self.config.n_channels;
+        let closed = std::mem::take(&mut self.closed);
+        if closed.len() > 0 {
+            self.drained = true;
+        }
+        let mut out = DecimatedBlocks::with_capacity(nc, closed.len());
+        self.append_kept(&mut out, &closed);
+        out
     }
+
     /// All blocks so far with at least `min_count` samples. Error if none.
+    ///
+    /// Does not change the decimator: more chunks can be pushed afterwards.
     pub fn finish(&self) -> Result<DecimatedBlocks> {
-        todo!()
+        let nc = self.config.n_channels;
+        let mut out = DecimatedBlocks::with_capacity(nc, self.closed.len() + 1);
+        self.append_kept(&mut out, &self.closed);
+        let open = &self.open;
+        if open.count > 0 && open.count >= self.config.min_count as u64 {
+            out.push_mean(
+                open.index,
+                open.count,
+                open.sum_time,
+                open.sum_temp,
+                &open.sum_ch,
+            );
+        }
+        if out.is_empty() {
+            return Err(Error::Empty {
+                what: "decimator: no block with at least min_count valid samples",
+            });
+        }
+        Ok(out)
     }
+
     /// Rows pushed so far (valid or not).
     pub fn n_samples(&self) -> u64 {
-        todo!()
+        self.n_samples
     }
+
     /// Rows skipped because time, temperature or a channel was NaN or infinite.
     pub fn n_skipped_nonfinite(&self) -> u64 {
-        todo!()
+        self.n_skipped
+    }
+
+    /// Accumulate one validated chunk; `sums` is scratch for the open block's
+    /// channel sums (length n_channels). Returns (skipped rows, first and last
+    /// valid time of the chunk, NaN if none).
+    fn accumulate<S: AsRef<[f64]> + AsMut<[f64]>>(
+        &mut self,
+        t0: f64,
+        mut sums: S,
+        time_s: &[f64],
+        temperature_c: &[f64],
+        channels: &ArrayView2<'_, f64>,
+    ) -> (u64, f64, f64) {
+        for (dst, &v) in sums.as_mut().iter_mut().zip(&self.open.sum_ch) {
+            *dst = v;
+        }
+        let nc = sums.as_ref().len();
+        let open = &self.open;
+        let (lo, hi) = if open.count > 0 {
+            let lo = open.index as f64;
+            (lo, lo + 1.0)
+        } else {
+            (f64::INFINITY, f64::NEG_INFINITY)
+        };
+        let mut hot = Hot {
+            t0,
+            rate_hz: self.config.rate_hz,
+            factor: self.config.factor as f64,
+            index: open.index,
+            lo,
+            hi,
+            count: open.count,
+            sum_time: open.sum_time,
+            sum_temp: open.sum_temp,
+            sums,
+            n_skipped: 0,
+            first_valid: f64::NAN,
+            last_valid: f64::NAN,
+        };
+        let closed = &mut self.closed;
+        let rows = time_s.iter().zip(temperature_c);
+        if nc == 0 {
+            hot.run(closed, rows.map(|(&t, &temp)| (t, temp, &[][..])));
+        } else if let Some(flat) = channels.as_slice() {
+            hot.run(
+                closed,
+                rows.zip(flat.chunks_exact(nc))
+                    .map(|((&t, &temp), r)| (t, temp, r)),
+            );
+        } else {
+            // Any strides: copy a few thousand rows at a time into a contiguous buffer.
+            const ROWS: usize = 2048;
+            let mut rows = rows;
+            let mut buf = Vec::with_capacity(ROWS * nc);
+            let mut views = channels.rows().into_iter().peekable();
+            while views.peek().is_some() {
+                buf.clear();
+                for view in views.by_ref().take(ROWS) {
+                    buf.extend(view.iter().copied());
+                }
+                let chunk = rows.by_ref().take(buf.len() / nc);
+                hot.run(
+                    closed,
+                    chunk
+                        .zip(buf.chunks_exact(nc))
+                        .map(|((&t, &temp), r)| (t, temp, r)),
+                );
+            }
+        }
+        let open = &mut self.open;
+        open.index = hot.index;
+        open.count = hot.count;
+        open.sum_time = hot.sum_time;
+        open.sum_temp = hot.sum_temp;
+        for (dst, &v) in open.sum_ch.iter_mut().zip(hot.sums.as_ref()) {
+            *dst = v;
+        }
+        (hot.n_skipped, hot.first_valid, hot.last_valid)
+    }
+
+    fn append_kept(&self, out: &mut DecimatedBlocks, sums: &BlockSums) {
+        let nc = self.config.n_channels;
+        let min = self.config.min_count as u64;
+        for i in 0..sums.len() {
+            if sums.count[i] >= min {
+                out.push_mean(
+                    sums.index[i],
+                    sums.count[i],
+                    sums.sum_time[i],
+                    sums.sum_temp[i],
+                    sums.channels(i, nc),
+                );
+            }
+        }
+    }
+
+    /// Closed blocks followed by the open one (if any).
+    fn all_sums(&self) -> BlockSums {
+        let mut s = self.closed.clone();
+        let o = &self.open;
+        if o.count > 0 {
+            s.push(o.index, o.count, o.sum_time, o.sum_temp, &o.sum_ch);
+        }
+        s
+    }
+}
+
+fn incompatible(reason: String) -> Error {
+    Error::Incompatible { reason }
+}
+
+/// Shape checks shared by the decimator and the binner.
+pub(crate) fn check_shapes(
+    time_s: &[f64],
+    temperature_c: &[f64],
+    channels: &ArrayView2<'_, f64>,
+    n_channels: usize,
+) -> Result<()> {
+    let n = time_s.len();
+    if temperature_c.len() != n {
+        return Err(Error::Shape {
+            what: "temperature_c length",
+            expected: n,
+            got: temperature_c.len(),
+        });
+    }
+    if channels.nrows() != n {
+        return Err(Error::Shape {
+            what: "channels rows",
+            expected: n,
+            got: channels.nrows(),
+        });
+    }
+    if channels.ncols() != n_channels {
+        return Err(Error::Shape {
+            what: "channels columns",
+            expected: n_channels,
+            got: channels.ncols(),
+        });
+    }
+    Ok(())
+}
+
+/// Hot-loop state of one `push`: the open block and the chunk's counters.
+struct Hot<S> {
+    t0: f64,
+    rate_hz: f64,
+    factor: f64,
+    /// Open block index and its range `[lo, hi)` in units of blocks; an empty
+    /// range (`lo = +inf`) when there is no open block.
+    index: i64,
+    lo: f64,
+    hi: f64,
+    count: u64,
+    sum_time: f64,
+    sum_temp: f64,
+    sums: S,
+    n_skipped: u64,
+    /// NaN until the chunk has a valid row.
+    first_valid: f64,
+    last_valid: f64,
+}
+
+impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
+    /// The hot loop. The state is copied into locals so that it stays in
+    /// registers; completed blocks are appended to `closed`.
+    #[inline]
+    fn run<'r, I>(&mut self, closed: &mut BlockSums, rows: I)
+    where
+        I: Iterator<Item = (f64, f64, &'r [f64])>,
+    {
+        let (t0, rate_hz, factor) = (self.t0, self.rate_hz, self.factor);
+        let (mut index, mut lo, mut hi) = (self.index, self.lo, self.hi);
+        let (mut count, mut sum_time, mut sum_temp) = (self.count, self.sum_time, self.sum_temp);
+        let sums = self.sums.as_mut();
+        let mut n_skipped = 0u64;
+        let (mut first_valid, mut last_valid) = (self.first_valid, self.last_valid);
+        for (t, temp, row) in rows {
+            // `v - v` is 0 for finite v and NaN otherwise: one branch per row.
+            let mut z = (t - t) + (temp - temp);
+            for &v in row {
+                z += v - v;
+            }
+            if z != 0.0 {
+                n_skipped += 1;
+                continue;
+            }
+            if first_valid.is_nan() {
+                first_valid = t;
+            }
+            last_valid = t;
+            let x = (t - t0) * rate_hz / factor;
+            // `lo <= x < hi` <=> `x.floor() as i64 == index`: skip the floor.
+            if !(x >= lo && x < hi) {
+                let k = x.floor() as i64;
+                if count == 0 || k != index {
+                    if count > 0 {
+                        closed.push(index, count, sum_time, sum_temp, sums);
+                    }
+                    index = k;
+                    count = 0;
+                    sum_time = 0.0;
+                    sum_temp = 0.0;
+                    sums.fill(0.0);
+                }
+                // Exact for |k| < 2^53; beyond, [lo, hi) holds at most `lo` itself.
+                lo = k as f64;
+                hi = lo + 1.0;
+            }
+            count += 1;
+            sum_time += t;
+            sum_temp += temp;
+            for (s, &v) in sums.iter_mut().zip(row) {
+                *s += v;
+            }
+        }
+        (self.index, self.lo, self.hi) = (index, lo, hi);
+        (self.count, self.sum_time, self.sum_temp) = (count, sum_time, sum_temp);
+        self.n_skipped += n_skipped;
+        (self.first_valid, self.last_valid) = (first_valid, last_valid);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ndarray::Array2;
+
+    fn cfg(factor: usize, rate_hz: f64, nc: usize) -> DecimatorConfig {
+        DecimatorConfig {
+            factor,
+            rate_hz,
+            n_channels: nc,
+            min_count: 1,
+            t0_s: None,
+        }
+    }
+
+    #[test]
+    fn config_validation() {
+        for bad in [
+            DecimatorConfig {
+                factor: 0,
+                ..Default::default()
+            },
+            DecimatorConfig {
+                rate_hz: 0.0,
+                ..Default::default()
+            },
+            DecimatorConfig {
+                rate_hz: -1.0,
+                ..Default::default()
+            },
+            DecimatorConfig {
+                rate_hz: f64::NAN,
+                ..Default::default()
+            },
+            DecimatorConfig {
+                rate_hz: f64::INFINITY,
+                ..Default::default()
+            },
+            DecimatorConfig {
+                min_count: 0,
+                ..Default::default()
+            },
+            DecimatorConfig {
+                t0_s: Some(f64::NAN),
+                ..Default::default()
+            },
+        ] {
+            assert!(matches!(
+                Decimator::new(bad),
+                Err(Error::InvalidParameter { .. })
+            ));
+        }
+        assert!(Decimator::new(DecimatorConfig {
+            n_channels: 0,
+            ..Default::default()
+        })
+        .is_ok());
+    }
+
+    #[test]
+    fn open_block_is_kept_in_fixed_buffer() {
+        let mut d = Decimator::new(cfg(2, 1.0, 1)).unwrap();
+        let t = [0.0, 1.0, 2.0];
+        let ch = Array2::from_shape_vec((3, 1), vec![1.0, 3.0, 5.0]).unwrap();
+        d.push(&t, &t, ch.view()).unwrap();
+        assert_eq!(d.closed.index, vec![0]);
+        assert_eq!((d.open.index, d.open.count), (1, 1));
+        let out = d.finish().unwrap();
+        assert_eq!(out.block_index, vec![0, 1]);
+        assert_eq!(out.channels, vec![2.0, 5.0]);
+    }
+
+    #[test]
+    fn fortran_order_channels() {
+        let mut c = Decimator::new(cfg(2, 1.0, 2)).unwrap();
+        let mut f = Decimator::new(cfg(2, 1.0, 2)).unwrap();
+        let t = [0.0, 1.0, 2.0, 3.0];
+        let data = Array2::from_shape_fn((4, 2), |(i, j)| (i * 10 + j) as f64);
+        let fortran = data.t().as_standard_layout().to_owned();
+        c.push(&t, &t, data.view()).unwrap();
+        f.push(&t, &t, fortran.t()).unwrap();
+        assert_eq!(c.finish().unwrap(), f.finish().unwrap());
     }
 }

@@ -11,13 +11,20 @@
 //! - [`Decimator`]: time-aligned block means (20 Hz to 2 Hz by default).
 //! - [`TemperatureBinner`]: per-temperature-bin count, mean and variance.
 //! - [`LeastSquares`]: incremental weighted least squares by Givens QR.
+//! - [`read_run`]: a streaming reader of session logs straight into a [`Decimator`].
 
 pub mod binning;
+pub mod compensate;
 pub mod decimate;
 pub mod error;
+pub mod features;
+pub mod reader;
 pub mod regression;
 
 pub use binning::{BinnedStats, BinnerConfig, TemperatureBinner};
+pub use compensate::compensate;
 pub use decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 pub use error::{Error, Result};
+pub use features::first_order_lag;
+pub use reader::{read_run, read_run_from, ChannelRange, CsvFormat, RunData};
 pub use regression::{LeastSquares, LstsqSolution};

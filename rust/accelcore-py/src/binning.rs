@@ -40,8 +40,12 @@ pub(crate) fn stats_to_py(py: Python<'_>, stats: BinnedStats) -> PyResult<PyBinn
         count: count.into_pyarray(py).unbind(),
         temperature_c: stats.temperature_c.into_pyarray(py).unbind(),
         time_s: stats.time_s.into_pyarray(py).unbind(),
-        mean: to_2d(stats.mean, n_bins, stats.n_channels)?.into_pyarray(py).unbind(),
-        variance: to_2d(stats.variance, n_bins, stats.n_channels)?.into_pyarray(py).unbind(),
+        mean: to_2d(stats.mean, n_bins, stats.n_channels)?
+            .into_pyarray(py)
+            .unbind(),
+        variance: to_2d(stats.variance, n_bins, stats.n_channels)?
+            .into_pyarray(py)
+            .unbind(),
         n_below: stats.n_below,
         n_above: stats.n_above,
         n_nonfinite: stats.n_nonfinite,
@@ -66,7 +70,12 @@ impl PyTemperatureBinner {
     #[new]
     #[pyo3(signature = (*, lo_c = 0.0, hi_c = 60.0, width_c = 0.5, n_channels = 3))]
     fn new(lo_c: f64, hi_c: f64, width_c: f64, n_channels: usize) -> PyResult<Self> {
-        let config = BinnerConfig { lo_c, hi_c, width_c, n_channels };
+        let config = BinnerConfig {
+            lo_c,
+            hi_c,
+            width_c,
+            n_channels,
+        };
         let inner = TemperatureBinner::new(config).map_err(crate::errors::CoreError)?;
         Ok(Self { inner })
     }

@@ -44,7 +44,10 @@ impl PyDecimatedBlocks {
     }
 
     fn __repr__(&self, py: Python<'_>) -> String {
-        format!("DecimatedBlocks(n_blocks={})", self.block_index.bind(py).len())
+        format!(
+            "DecimatedBlocks(n_blocks={})",
+            self.block_index.bind(py).len()
+        )
     }
 }
 
@@ -59,7 +62,13 @@ impl PyDecimator {
         min_count: usize,
         t0_s: Option<f64>,
     ) -> PyResult<Self> {
-        let config = DecimatorConfig { factor, rate_hz, n_channels, min_count, t0_s };
+        let config = DecimatorConfig {
+            factor,
+            rate_hz,
+            n_channels,
+            min_count,
+            t0_s,
+        };
         let inner = Decimator::new(config).map_err(crate::errors::CoreError)?;
         Ok(Self { inner })
     }

@@ -35,7 +35,11 @@ fn to_pyerr(py: Python<'_>, err: &Error) -> PyErr {
             "ParameterError"
         }
         Error::Shape { .. } => "ShapeError",
-        Error::TimeNotIncreasing { index, previous_s, time_s } => {
+        Error::TimeNotIncreasing {
+            index,
+            previous_s,
+            time_s,
+        } => {
             let _ = attrs.set_item("index", *index);
             let _ = attrs.set_item("previous_s", *previous_s);
             let _ = attrs.set_item("time_s", *time_s);
@@ -52,7 +56,9 @@ fn to_pyerr(py: Python<'_>, err: &Error) -> PyErr {
             let _ = attrs.set_item("columns", columns.clone());
             "SingularSystemError"
         }
-        Error::Parse { path, line, column, .. } => {
+        Error::Parse {
+            path, line, column, ..
+        } => {
             let _ = attrs.set_item("path", path.as_str());
             let _ = attrs.set_item("line", *line);
             let _ = attrs.set_item("column", *column);
@@ -76,6 +82,8 @@ fn to_pyerr(py: Python<'_>, err: &Error) -> PyErr {
         Ok(PyErr::from_value(exc))
     };
     build().unwrap_or_else(|e| {
-        PyRuntimeError::new_err(format!("{message} (and accelcore.errors could not be loaded: {e})"))
+        PyRuntimeError::new_err(format!(
+            "{message} (and accelcore.errors could not be loaded: {e})"
+        ))
     })
 }

@@ -3,9 +3,11 @@
 //! core errors to the Python exception hierarchy (`errors.rs`).
 
 mod binning;
+mod compensation;
 mod decimate;
 mod errors;
 mod gateway;
+mod reader;
 mod regression;
 
 use pyo3::prelude::*;
@@ -16,7 +18,11 @@ mod _accelcore {
     #[pymodule_export]
     use super::binning::{PyBinnedStats, PyTemperatureBinner};
     #[pymodule_export]
+    use super::compensation::{py_compensate, py_first_order_lag};
+    #[pymodule_export]
     use super::decimate::{PyDecimatedBlocks, PyDecimator};
+    #[pymodule_export]
+    use super::reader::{py_read_run, PyRunData};
     #[pymodule_export]
     use super::regression::{PyLeastSquares, PyLstsqSolution};
 

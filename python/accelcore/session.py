@@ -1,0 +1,436 @@
+"""Sessions: one sensor's thermal-chamber test, read into decimated runs.
+
+A session folder holds ``session.toml`` and one log per run (format
+``accelcore-session/1``, see ``docs/session-format.md``). :func:`load_session`
+streams each log through the Rust reader straight into the decimator, so a
+multi-hour 20 Hz log is never held in memory whole; only the 2 Hz blocks are
+kept. :meth:`Session.from_arrays` builds the same object from in-memory NumPy
+arrays or pandas DataFrames.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from accelcore import core
+from accelcore._accelcore import read_run
+from accelcore.errors import AccelcoreIOError, SessionFormatError
+
+__all__ = [
+    "AXES",
+    "FORMAT",
+    "ORIENTATIONS",
+    "Run",
+    "RunStats",
+    "Session",
+    "gravity_of",
+    "load_session",
+]
+
+FORMAT = "accelcore-session/1"
+AXES = ("x", "y", "z")
+#: Gravity in g seen by each axis in each orientation (``OZ+``: Z up, +1 g on Z).
+ORIENTATIONS: dict[str, tuple[float, float, float]] = {
+    "OX+": (1.0, 0.0, 0.0),
+    "OX-": (-1.0, 0.0, 0.0),
+    "OY+": (0.0, 1.0, 0.0),
+    "OY-": (0.0, -1.0, 0.0),
+    "OZ+": (0.0, 0.0, 1.0),
+    "OZ-": (0.0, 0.0, -1.0),
+}
+UNITS = ("V", "LSB", "g", "m/s2")
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+DELIMITERS = {",": ",", "\t": "\t", ";": ";", "\\t": "\t", "tab": "\t"}
+DEFAULT_COLUMNS = {"time": "time_s", "temperature": "temp_c", "x": "x", "y": "y", "z": "z"}
+
+
+def gravity_of(orientation: str) -> NDArray[np.float64]:
+    """Return the gravity vector in g that an orientation label implies.
+
+    Parameters
+    ----------
+    orientation : str
+        One of ``OX+ OX- OY+ OY- OZ+ OZ-`` (case-insensitive).
+
+    Returns
+    -------
+    ndarray of float64, shape (3,)
+        Gravity on x, y, z in g.
+    """
+    key = orientation.strip().upper()
+    if key not in ORIENTATIONS:
+        raise SessionFormatError(
+            f"unknown orientation {orientation!r}; expected one of {', '.join(ORIENTATIONS)}"
+        )
+    return np.array(ORIENTATIONS[key], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class RunStats:
+    """What the reader saw in one run's raw log (before decimation).
+
+    Attributes
+    ----------
+    n_rows : int
+        Data rows read.
+    n_skipped_nonfinite : int
+        Rows skipped because a value was NaN, infinite or empty.
+    n_truncated_rows : int
+        A last line cut off mid-write, dropped (0 or 1).
+    n_gaps : int
+        Intervals between rows longer than 1.5 nominal periods.
+    max_interval_s : float
+        Longest interval between rows, s.
+    duration_s : float
+        Time from the first to the last row, s.
+    channel_min, channel_max : ndarray
+        Raw range of each channel (x, y, z, then extras).
+    n_at_min, n_at_max : ndarray
+        Rows exactly at that minimum / maximum (many at one value: clipping).
+    """
+
+    n_rows: int
+    n_skipped_nonfinite: int = 0
+    n_truncated_rows: int = 0
+    n_gaps: int = 0
+    max_interval_s: float = 0.0
+    duration_s: float = 0.0
+    channel_min: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    channel_max: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    n_at_min: NDArray[np.uint64] = field(default_factory=lambda: np.zeros(0, dtype=np.uint64))
+    n_at_max: NDArray[np.uint64] = field(default_factory=lambda: np.zeros(0, dtype=np.uint64))
+
+    @property
+    def mean_rate_hz(self) -> float:
+        """Average sample rate over the run, Hz (NaN for a single row)."""
+        if self.n_rows < 2 or self.duration_s <= 0:
+            return math.nan
+        return (self.n_rows - 1) / self.duration_s
+
+
+@dataclass(frozen=True)
+class Run:
+    """One temperature sweep in one orientation, decimated.
+
+    Attributes
+    ----------
+    orientation : str
+        ``OX+`` ... ``OZ-``.
+    gravity_g : ndarray, shape (3,)
+        Gravity on x, y, z in g implied by the orientation.
+    time_s : ndarray
+        Block mean time, s, from the run's own origin.
+    temperature_c : ndarray
+        Block mean logged temperature, °C.
+    output : ndarray, shape (n, 3)
+        Block mean raw output of x, y, z in session units.
+    count : ndarray
+        Raw samples averaged in each block.
+    extras : dict of str to ndarray
+        Block means of every extra logged column (e.g. ``supply_v``).
+    source : str or None
+        The log file, when read from disk.
+    stats : RunStats
+        What the reader saw in the raw log.
+    """
+
+    orientation: str
+    gravity_g: NDArray[np.float64]
+    time_s: NDArray[np.float64]
+    temperature_c: NDArray[np.float64]
+    output: NDArray[np.float64]
+    count: NDArray[np.int64]
+    extras: dict[str, NDArray[np.float64]]
+    source: str | None
+    stats: RunStats
+
+    def __len__(self) -> int:
+        return int(self.time_s.shape[0])
+
+    @property
+    def label(self) -> str:
+        """Short name: the file name, or the orientation for in-memory runs."""
+        return Path(self.source).name if self.source else self.orientation
+
+
+@dataclass(frozen=True)
+class Session:
+    """One sensor's thermal-chamber test: settings and decimated runs.
+
+    Attributes
+    ----------
+    runs : tuple of Run
+    units : str
+        ``V``, ``LSB``, ``g`` or ``m/s2``.
+    rate_hz : float
+        Nominal raw sample rate.
+    sensor : str or None
+        Datasheet name, when given.
+    serial : str or None
+        The part's serial.
+    path : str or None
+        The session folder, when read from disk.
+    decimation_factor : int
+        Raw samples per block.
+    """
+
+    runs: tuple[Run, ...]
+    units: str
+    rate_hz: float
+    sensor: str | None = None
+    serial: str | None = None
+    path: str | None = None
+    decimation_factor: int = 10
+
+    @property
+    def orientations(self) -> tuple[str, ...]:
+        """Orientation of every run, in order."""
+        return tuple(r.orientation for r in self.runs)
+
+    @property
+    def extra_columns(self) -> tuple[str, ...]:
+        """Extra observables logged in every run."""
+        if not self.runs:
+            return ()
+        common = set(self.runs[0].extras)
+        for r in self.runs[1:]:
+            common &= set(r.extras)
+        return tuple(k for k in self.runs[0].extras if k in common)
+
+    def file_hashes(self) -> dict[str, str]:
+        """SHA-256 of ``session.toml`` and every run file, for provenance."""
+        if self.path is None:
+            return {}
+        files = [Path(self.path) / "session.toml"] + [Path(r.source) for r in self.runs if r.source]
+        out: dict[str, str] = {}
+        for f in files:
+            digest = hashlib.sha256()
+            with open(f, "rb") as fh:
+                for block in iter(lambda: fh.read(1 << 20), b""):
+                    digest.update(block)
+            out[f.name] = digest.hexdigest()
+        return out
+
+    @classmethod
+    def from_arrays(
+        cls,
+        runs: Sequence[tuple[str, Mapping[str, ArrayLike] | Any]],
+        *,
+        units: str,
+        rate_hz: float,
+        sensor: str | None = None,
+        serial: str | None = None,
+        decimation_factor: int = 10,
+        columns: Mapping[str, str] | None = None,
+    ) -> Session:
+        """Build a session from in-memory data, decimated like a file would be.
+
+        Parameters
+        ----------
+        runs : sequence of (orientation, data)
+            ``data`` is a mapping of column name to 1-D array, or a pandas
+            DataFrame, with the time, temperature, x, y, z columns (names as in
+            ``columns``) and any extra observables.
+        units : str
+            ``V``, ``LSB``, ``g`` or ``m/s2``.
+        rate_hz : float
+            Nominal sample rate of the data.
+        sensor, serial : str, optional
+            Datasheet name and serial.
+        decimation_factor : int, default 10
+            Raw samples per block (1 keeps the data as it is).
+        columns : mapping, optional
+            Column names, defaults ``time_s, temp_c, x, y, z``.
+
+        Returns
+        -------
+        Session
+        """
+        _check_units(units, "units")
+        names = {**DEFAULT_COLUMNS, **(columns or {})}
+        built = []
+        for orientation, data in runs:
+            gravity = gravity_of(orientation)
+            table = {str(k): np.asarray(data[k], dtype=np.float64) for k in data}
+            missing = [names[k] for k in ("time", "temperature", "x", "y", "z")
+                       if names[k] not in table]
+            if missing:
+                raise SessionFormatError(
+                    f"run {orientation}: missing column(s) {', '.join(missing)}; "
+                    f"found {', '.join(table)}"
+                )
+            required = [names[k] for k in ("x", "y", "z")]
+            extra_names = [k for k in table
+                           if k not in required and k not in (names["time"], names["temperature"])]
+            channels = np.column_stack([table[k] for k in required + extra_names])
+            time_s = table[names["time"]]
+            dec = core.Decimator(factor=decimation_factor, rate_hz=rate_hz,
+                                 n_channels=channels.shape[1])
+            dec.push(time_s, table[names["temperature"]], channels)
+            blocks = dec.finish()
+            finite = time_s[np.isfinite(time_s)]
+            stats = RunStats(
+                n_rows=int(time_s.shape[0]),
+                n_skipped_nonfinite=dec.n_skipped_nonfinite,
+                duration_s=float(finite[-1] - finite[0]) if finite.size else 0.0,
+            )
+            built.append(_make_run(orientation.strip().upper(), gravity, blocks, extra_names,
+                                   None, stats))
+        return cls(runs=tuple(built), units=units, rate_hz=float(rate_hz), sensor=sensor,
+                   serial=serial, path=None, decimation_factor=decimation_factor)
+
+
+def _make_run(
+    orientation: str,
+    gravity: NDArray[np.float64],
+    blocks: core.DecimatedBlocks,
+    extra_names: Sequence[str],
+    source: str | None,
+    stats: RunStats,
+) -> Run:
+    channels = blocks.channels
+    extras = {name: channels[:, 3 + i].copy() for i, name in enumerate(extra_names)}
+    return Run(
+        orientation=orientation,
+        gravity_g=gravity,
+        time_s=blocks.time_s,
+        temperature_c=blocks.temperature_c,
+        output=np.ascontiguousarray(channels[:, :3]),
+        count=blocks.count,
+        extras=extras,
+        source=source,
+        stats=stats,
+    )
+
+
+def _check_units(units: object, where: str) -> str:
+    if units not in UNITS:
+        raise SessionFormatError(f"{where}: units must be one of {', '.join(UNITS)}, got {units!r}")
+    return str(units)
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    toml_path = path / "session.toml"
+    if not path.exists():
+        raise AccelcoreIOError(f"{path}: no such session folder")
+    if not toml_path.is_file():
+        raise SessionFormatError(f"{toml_path}: missing (a session folder holds a session.toml)")
+    try:
+        with open(toml_path, "rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise SessionFormatError(f"{toml_path}: not valid TOML: {exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise SessionFormatError(f"{toml_path}: not UTF-8 text: {exc}") from exc
+
+
+def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: int = 1) -> Session:
+    """Read a session folder, streaming every log through the Rust reader and decimator.
+
+    Parameters
+    ----------
+    path : str or Path
+        The session folder (holding ``session.toml``).
+    decimation_factor : int, default 10
+        Raw samples per block: 10 turns 20 Hz into 2 Hz, as in the seed paper.
+    min_count : int, default 1
+        Blocks with fewer valid raw samples are dropped.
+
+    Returns
+    -------
+    Session
+
+    Raises
+    ------
+    accelcore.SessionFormatError
+        ``session.toml`` is missing, invalid, of another format version, or names
+        an unknown orientation; the message names the file and the key.
+    accelcore.ParseError
+        A log cannot be parsed; ``.path``, ``.line`` and ``.column`` say where.
+    accelcore.AccelcoreIOError
+        The folder or a run file does not exist or cannot be read.
+    """
+    folder = Path(path)
+    meta = _read_toml(folder)
+    where = str(folder / "session.toml")
+    fmt = meta.get("format")
+    if fmt is None:
+        raise SessionFormatError(f"{where}: missing required key 'format' (= \"{FORMAT}\")")
+    if fmt != FORMAT:
+        raise SessionFormatError(f"{where}: format {fmt!r} is not supported; expected {FORMAT!r}")
+    for key in ("units", "rate_hz"):
+        if key not in meta:
+            raise SessionFormatError(f"{where}: missing required key '{key}'")
+    units = _check_units(meta["units"], where)
+    rate_hz = meta["rate_hz"]
+    if not isinstance(rate_hz, (int, float)) or not math.isfinite(rate_hz) or rate_hz <= 0:
+        raise SessionFormatError(f"{where}: rate_hz must be a positive number, got {rate_hz!r}")
+    delimiter = meta.get("delimiter", ",")
+    if delimiter not in DELIMITERS:
+        raise SessionFormatError(
+            f"{where}: delimiter must be ',', '\\t' or ';', got {delimiter!r}"
+        )
+    time_unit = meta.get("time_unit", "s")
+    if time_unit not in TIME_UNITS:
+        raise SessionFormatError(
+            f"{where}: time_unit must be one of {', '.join(TIME_UNITS)}, got {time_unit!r}"
+        )
+    columns = {**DEFAULT_COLUMNS, **meta.get("columns", {})}
+    unknown = set(columns) - set(DEFAULT_COLUMNS)
+    if unknown:
+        raise SessionFormatError(f"{where}: unknown key(s) in [columns]: {', '.join(sorted(unknown))}")
+    run_tables = meta.get("run")
+    if not isinstance(run_tables, list) or not run_tables:
+        raise SessionFormatError(f"{where}: no [[run]] table; a session needs at least one run")
+    runs = []
+    for i, table in enumerate(run_tables, start=1):
+        for key in ("file", "orientation"):
+            if key not in table:
+                raise SessionFormatError(f"{where}: [[run]] #{i} is missing required key '{key}'")
+        try:
+            gravity = gravity_of(str(table["orientation"]))
+        except SessionFormatError as exc:
+            raise SessionFormatError(f"{where}: [[run]] #{i}: {exc}") from None
+        file = folder / str(table["file"])
+        if not file.is_file():
+            raise AccelcoreIOError(f"{file}: run file does not exist ({where}, [[run]] #{i})")
+        data = read_run(
+            str(file),
+            delimiter=DELIMITERS[delimiter],
+            time_column=columns["time"],
+            temperature_column=columns["temperature"],
+            channel_columns=[columns["x"], columns["y"], columns["z"]],
+            keep_extra_columns=True,
+            time_scale_to_s=TIME_UNITS[time_unit],
+            factor=decimation_factor,
+            rate_hz=float(rate_hz),
+            min_count=min_count,
+        )
+        stats = RunStats(
+            n_rows=data.n_rows,
+            n_skipped_nonfinite=data.n_skipped_nonfinite,
+            n_truncated_rows=data.n_truncated_rows,
+            n_gaps=data.n_gaps,
+            max_interval_s=data.max_interval_s,
+            duration_s=data.last_time_s - data.first_time_s,
+            channel_min=data.channel_min,
+            channel_max=data.channel_max,
+            n_at_min=data.n_at_min,
+            n_at_max=data.n_at_max,
+        )
+        runs.append(_make_run(str(table["orientation"]).strip().upper(), gravity, data.blocks,
+                              data.channel_names[3:], str(file), stats))
+    sensor = meta.get("sensor") or None
+    serial = meta.get("serial") or None
+    return Session(runs=tuple(runs), units=units, rate_hz=float(rate_hz),
+                   sensor=str(sensor) if sensor else None, serial=str(serial) if serial else None,
+                   path=str(folder), decimation_factor=decimation_factor)

@@ -1,0 +1,474 @@
+//! Streaming reader of session log files (delimited text) straight into a
+//! [`Decimator`]: the log is never held in memory whole.
+//!
+//! Rules, each with its error:
+//! - an optional UTF-8 byte-order mark is dropped; `\r\n` and `\n` line ends are both accepted;
+//! - line 1 is the header; every requested column must be present
+//!   ([`Error::Parse`] at line 1 names the missing one and lists those found,
+//!   and suggests the delimiter when the header looks split by another one);
+//! - blank lines are skipped; a data line with a field count other than the header's is an
+//!   error naming its line, except a last line without a newline that is shorter than the
+//!   header (a log cut off mid-write), which is dropped and counted in
+//!   [`RunData::n_truncated_rows`];
+//! - a cell is parsed as a decimal number (`nan` and `inf` are accepted and then skipped
+//!   by the decimator, counted); an empty cell is read as NaN (missing); anything else
+//!   is an error naming line and column (1-based field index) and the text found;
+//! - time must strictly increase: an error names the line (the decimator's rule).
+
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+
+use ndarray::ArrayView2;
+
+use crate::decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
+use crate::error::{Error, Result};
+
+/// How to read one log file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CsvFormat {
+    /// Field separator: `b','`, `b'\t'` or `b';'`.
+    pub delimiter: u8,
+    /// Name of the time column.
+    pub time_column: String,
+    /// Name of the temperature column.
+    pub temperature_column: String,
+    /// Names of the required data channels (x, y, z), in output order.
+    pub channel_columns: Vec<String>,
+    /// Keep every other numeric column as an extra channel after the required ones.
+    pub keep_extra_columns: bool,
+    /// Factor that turns the time column's unit into seconds (1 for s, 1e-3 for ms, ...).
+    pub time_scale_to_s: f64,
+}
+
+impl Default for CsvFormat {
+    fn default() -> Self {
+        Self {
+            delimiter: b',',
+            time_column: "time_s".into(),
+            temperature_column: "temp_c".into(),
+            channel_columns: vec!["x".into(), "y".into(), "z".into()],
+            keep_extra_columns: true,
+            time_scale_to_s: 1.0,
+        }
+    }
+}
+
+/// Per-channel range seen in the raw samples, to detect clipping at the rails.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelRange {
+    /// Smallest finite raw value.
+    pub min: f64,
+    /// Largest finite raw value.
+    pub max: f64,
+    /// Samples exactly equal to `min`.
+    pub n_at_min: u64,
+    /// Samples exactly equal to `max`.
+    pub n_at_max: u64,
+}
+
+impl Default for ChannelRange {
+    fn default() -> Self {
+        Self {
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+            n_at_min: 0,
+            n_at_max: 0,
+        }
+    }
+}
+
+impl ChannelRange {
+    fn push(&mut self, v: f64) {
+        if !v.is_finite() {
+            return;
+        }
+        if v < self.min {
+            self.min = v;
+            self.n_at_min = 1;
+        } else if v == self.min {
+            self.n_at_min += 1;
+        }
+        if v > self.max {
+            self.max = v;
+            self.n_at_max = 1;
+        } else if v == self.max {
+            self.n_at_max += 1;
+        }
+    }
+}
+
+/// One run read and decimated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunData {
+    /// Header fields as found.
+    pub header: Vec<String>,
+    /// Names of the decimated channels: the required ones, then the extras.
+    pub channel_names: Vec<String>,
+    /// Decimated blocks (time in seconds from the file's own origin).
+    pub blocks: DecimatedBlocks,
+    /// Data rows read (excluding the header, blank lines and a dropped truncated line).
+    pub n_rows: u64,
+    /// Rows skipped because a value was NaN, infinite or empty.
+    pub n_skipped_nonfinite: u64,
+    /// A last line cut off mid-write (0 or 1).
+    pub n_truncated_rows: u64,
+    /// Time of the first and last rows, seconds (file's origin).
+    pub first_time_s: f64,
+    /// Time of the last row, seconds.
+    pub last_time_s: f64,
+    /// Intervals between consecutive rows longer than 1.5 nominal periods.
+    pub n_gaps: u64,
+    /// Longest interval between consecutive rows, s.
+    pub max_interval_s: f64,
+    /// Raw range of each decimated channel (clipping detection).
+    pub channel_ranges: Vec<ChannelRange>,
+}
+
+const BATCH_ROWS: usize = 8192;
+
+fn io_error(path: &str, err: &std::io::Error) -> Error {
+    Error::Io {
+        path: path.to_string(),
+        reason: err.to_string(),
+    }
+}
+
+fn parse_error(path: &str, line: u64, column: u64, reason: String) -> Error {
+    Error::Parse {
+        path: path.to_string(),
+        line,
+        column,
+        reason,
+    }
+}
+
+/// Parse one cell; empty is NaN (missing).
+fn parse_cell(cell: &[u8]) -> Option<f64> {
+    let cell = cell.trim_ascii();
+    if cell.is_empty() {
+        return Some(f64::NAN);
+    }
+    fast_float2::parse::<f64, _>(cell).ok()
+}
+
+fn split_fields(line: &[u8], delimiter: u8) -> impl Iterator<Item = &[u8]> {
+    line.split(move |&b| b == delimiter)
+}
+
+fn strip_line_end(line: &[u8]) -> &[u8] {
+    let line = line.strip_suffix(b"\n").unwrap_or(line);
+    line.strip_suffix(b"\r").unwrap_or(line)
+}
+
+/// Where each wanted column sits in a row, from the header.
+struct ColumnMap {
+    time: usize,
+    temperature: usize,
+    /// Field index of every decimated channel, required first.
+    channels: Vec<usize>,
+    names: Vec<String>,
+}
+
+fn map_columns(path: &str, header: &[String], format: &CsvFormat) -> Result<ColumnMap> {
+    let find = |name: &str| header.iter().position(|h| h == name);
+    let mut missing = Vec::new();
+    let mut need = |name: &str| {
+        let found = find(name);
+        if found.is_none() {
+            missing.push(name.to_string());
+        }
+        found.unwrap_or(0)
+    };
+    let time = need(&format.time_column);
+    let temperature = need(&format.temperature_column);
+    let mut channels: Vec<usize> = format.channel_columns.iter().map(|c| need(c)).collect();
+    if !missing.is_empty() {
+        let mut reason = format!(
+            "missing column(s) {} in the header; found {}",
+            missing
+                .iter()
+                .map(|m| format!("'{m}'"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            header
+                .iter()
+                .map(|m| format!("'{m}'"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        if header.len() == 1 {
+            for (d, name) in [(b',', "','"), (b'\t', "tab"), (b';', "';'")] {
+                if d != format.delimiter && header[0].as_bytes().contains(&d) {
+                    reason.push_str("; the header is one field containing ");
+                    reason.push_str(name);
+                    reason.push_str(": is the delimiter ");
+                    reason.push_str(name);
+                    reason.push('?');
+                }
+            }
+        }
+        return Err(parse_error(path, 1, 1, reason));
+    }
+    let mut names = format.channel_columns.clone();
+    if format.keep_extra_columns {
+        for (i, h) in header.iter().enumerate() {
+            if i != time && i != temperature && !channels.contains(&i) {
+                channels.push(i);
+                names.push(h.clone());
+            }
+        }
+    }
+    Ok(ColumnMap {
+        time,
+        temperature,
+        channels,
+        names,
+    })
+}
+
+/// Column-major batch of parsed rows waiting to be pushed.
+struct Batch {
+    time_s: Vec<f64>,
+    temperature_c: Vec<f64>,
+    channels: Vec<f64>,
+    lines: Vec<u64>,
+}
+
+impl Batch {
+    fn new(n_channels: usize) -> Self {
+        Self {
+            time_s: Vec::with_capacity(BATCH_ROWS),
+            temperature_c: Vec::with_capacity(BATCH_ROWS),
+            channels: Vec::with_capacity(BATCH_ROWS * n_channels),
+            lines: Vec::with_capacity(BATCH_ROWS),
+        }
+    }
+
+    fn flush(
+        &mut self,
+        decimator: &mut Decimator,
+        n_channels: usize,
+        path: &str,
+        time_field: u64,
+    ) -> Result<()> {
+        let n = self.time_s.len();
+        let view = ArrayView2::from_shape((n, n_channels), &self.channels).map_err(|e| {
+            Error::InvalidParameter {
+                name: "channels",
+                reason: e.to_string(),
+            }
+        })?;
+        let before = decimator.n_samples();
+        decimator
+            .push(&self.time_s, &self.temperature_c, view)
+            .map_err(|e| match e {
+                Error::TimeNotIncreasing {
+                    index,
+                    previous_s,
+                    time_s,
+                } => {
+                    let local = (index - before) as usize;
+                    let line = self.lines.get(local).copied().unwrap_or(0);
+                    let what = if time_s == previous_s {
+                        "repeats"
+                    } else {
+                        "goes backwards"
+                    };
+                    parse_error(
+                        path,
+                        line,
+                        time_field,
+                        format!("time {what}: {time_s} s after {previous_s} s"),
+                    )
+                }
+                other => other,
+            })?;
+        self.time_s.clear();
+        self.temperature_c.clear();
+        self.channels.clear();
+        self.lines.clear();
+        Ok(())
+    }
+}
+
+/// Read one log file and decimate it on the fly.
+pub fn read_run(path: &Path, format: &CsvFormat, decimator: DecimatorConfig) -> Result<RunData> {
+    let shown = path.display().to_string();
+    let file = File::open(path).map_err(|e| io_error(&shown, &e))?;
+    read_run_from(
+        BufReader::with_capacity(1 << 20, file),
+        &shown,
+        format,
+        decimator,
+    )
+}
+
+/// Read a log from any reader (`path` is only used in messages).
+pub fn read_run_from<R: Read>(
+    reader: R,
+    path: &str,
+    format: &CsvFormat,
+    decimator: DecimatorConfig,
+) -> Result<RunData> {
+    if !(format.time_scale_to_s.is_finite() && format.time_scale_to_s > 0.0) {
+        return Err(Error::InvalidParameter {
+            name: "time_scale_to_s",
+            reason: format!("must be finite and > 0, got {}", format.time_scale_to_s),
+        });
+    }
+    let mut reader = BufReader::with_capacity(1 << 20, reader);
+    let mut line = Vec::with_capacity(256);
+    let mut line_no: u64 = 0;
+    // Header: the first non-blank line.
+    let header: Vec<String> = loop {
+        line.clear();
+        let n = reader
+            .read_until(b'\n', &mut line)
+            .map_err(|e| io_error(path, &e))?;
+        if n == 0 {
+            return Err(parse_error(
+                path,
+                line_no.max(1),
+                1,
+                "empty file: no header".into(),
+            ));
+        }
+        line_no += 1;
+        let mut text = strip_line_end(&line);
+        if line_no == 1 {
+            text = text.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(text);
+        }
+        if text.trim_ascii().is_empty() {
+            continue;
+        }
+        let text = std::str::from_utf8(text).map_err(|e| {
+            parse_error(path, line_no, 1, format!("header is not valid UTF-8: {e}"))
+        })?;
+        break text
+            .split(format.delimiter as char)
+            .map(|h| h.trim().to_string())
+            .collect();
+    };
+    let header_line = line_no;
+    let columns = map_columns(path, &header, format)?;
+    let n_fields = header.len();
+    let n_channels = columns.channels.len();
+    let mut decimator = Decimator::new(DecimatorConfig {
+        n_channels,
+        ..decimator
+    })?;
+    let mut batch = Batch::new(n_channels);
+    let mut fields: Vec<f64> = vec![0.0; n_fields];
+    let mut ranges = vec![ChannelRange::default(); n_channels];
+    let (mut n_rows, mut n_truncated, mut n_gaps) = (0u64, 0u64, 0u64);
+    let (mut first_time, mut last_time, mut max_interval) = (f64::NAN, f64::NAN, 0.0f64);
+    let nominal_period = 1.0 / decimator.config().rate_hz;
+    let time_field = columns.time as u64 + 1;
+    loop {
+        line.clear();
+        let n = reader
+            .read_until(b'\n', &mut line)
+            .map_err(|e| io_error(path, &e))?;
+        if n == 0 {
+            break;
+        }
+        line_no += 1;
+        let ends_with_newline = line.last() == Some(&b'\n');
+        let text = strip_line_end(&line);
+        if text.trim_ascii().is_empty() {
+            continue;
+        }
+        let mut count = 0usize;
+        for (i, cell) in split_fields(text, format.delimiter).enumerate() {
+            if i >= n_fields {
+                count = i + 1;
+                break;
+            }
+            let Some(value) = parse_cell(cell) else {
+                let shown = String::from_utf8_lossy(cell.trim_ascii());
+                let name = &header[i];
+                return Err(parse_error(
+                    path,
+                    line_no,
+                    i as u64 + 1,
+                    format!("column '{name}': '{shown}' is not a number"),
+                ));
+            };
+            fields[i] = value;
+            count = i + 1;
+        }
+        if count != n_fields {
+            if count < n_fields && !ends_with_newline {
+                n_truncated += 1;
+                break;
+            }
+            return Err(parse_error(
+                path,
+                line_no,
+                count.min(n_fields + 1) as u64,
+                format!(
+                    "{count}{} fields where the header (line {header_line}) has {n_fields}",
+                    if count > n_fields { "+" } else { "" }
+                ),
+            ));
+        }
+        let t = fields[columns.time] * format.time_scale_to_s;
+        if t.is_finite() {
+            if first_time.is_nan() {
+                first_time = t;
+            } else {
+                let dt = t - last_time;
+                if dt > max_interval {
+                    max_interval = dt;
+                }
+                if dt > 1.5 * nominal_period {
+                    n_gaps += 1;
+                }
+            }
+            last_time = t;
+        }
+        batch.time_s.push(t);
+        batch.temperature_c.push(fields[columns.temperature]);
+        for (range, &c) in ranges.iter_mut().zip(&columns.channels) {
+            let v = fields[c];
+            range.push(v);
+            batch.channels.push(v);
+        }
+        batch.lines.push(line_no);
+        n_rows += 1;
+        if batch.time_s.len() == BATCH_ROWS {
+            batch.flush(&mut decimator, n_channels, path, time_field)?;
+        }
+    }
+    batch.flush(&mut decimator, n_channels, path, time_field)?;
+    if n_rows == 0 {
+        return Err(parse_error(
+            path,
+            header_line,
+            1,
+            "no data rows after the header".into(),
+        ));
+    }
+    let blocks = decimator.finish().map_err(|_| {
+        parse_error(
+            path,
+            header_line + 1,
+            1,
+            format!("none of the {n_rows} rows has finite values in every column"),
+        )
+    })?;
+    Ok(RunData {
+        header,
+        channel_names: columns.names,
+        blocks,
+        n_rows,
+        n_skipped_nonfinite: decimator.n_skipped_nonfinite(),
+        n_truncated_rows: n_truncated,
+        first_time_s: first_time,
+        last_time_s: last_time,
+        n_gaps,
+        max_interval_s: max_interval,
+        channel_ranges: ranges,
+    })
+}
