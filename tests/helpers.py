@@ -47,9 +47,7 @@ def column_scale(values: FloatArray) -> float:
 KernelError = (accelcore.AccelcoreError, reference.ReferenceKernelError)
 
 
-def same_outcome(
-    first: Callable[[], T], second: Callable[[], U]
-) -> tuple[T, U] | None:
+def same_outcome(first: Callable[[], T], second: Callable[[], U]) -> tuple[T, U] | None:
     """Run both calls; they must both succeed or raise the same kind of error.
 
     Typically ``first`` is the Rust kernel and ``second`` the reference (or
@@ -95,8 +93,13 @@ def assert_close_scaled(actual: Any, expected: Any, scale: float, what: str) -> 
 # --------------------------------------------------------------------------- decimator
 
 
-def assert_blocks_match(rust: Any, expected: reference.DecimatedBlocks, channels: FloatArray,
-                        time_s: FloatArray, temperature_c: FloatArray) -> None:
+def assert_blocks_match(
+    rust: Any,
+    expected: reference.DecimatedBlocks,
+    channels: FloatArray,
+    time_s: FloatArray,
+    temperature_c: FloatArray,
+) -> None:
     """Compare a Rust ``finish()`` result with the reference (see :data:`MEAN_RTOL`)."""
     assert np.asarray(rust.block_index).dtype == np.int64
     assert np.asarray(rust.count).dtype == np.int64
@@ -141,8 +144,13 @@ def variance_atol(count: Any, scale: float, variance: FloatArray) -> FloatArray:
     return np.maximum(1e-12, 4.0 * n * EPS) * scale * std + MEAN_RTOL * np.nan_to_num(variance)
 
 
-def assert_bins_match(rust: Any, expected: reference.BinnedStats, channels: FloatArray,
-                      time_s: FloatArray, temperature_c: FloatArray) -> None:
+def assert_bins_match(
+    rust: Any,
+    expected: reference.BinnedStats,
+    channels: FloatArray,
+    time_s: FloatArray,
+    temperature_c: FloatArray,
+) -> None:
     """Compare a Rust binner result with the reference."""
     np.testing.assert_array_equal(rust.edges_c, expected.edges_c, err_msg="edges_c")
     assert np.asarray(rust.count).dtype == np.int64

@@ -166,9 +166,7 @@ class BinnerCase:
 def binner_configs(draw: st.DrawFn) -> dict[str, Any]:
     """Windows of 1..40 widths, sometimes not a whole number of widths."""
     lo_c = draw(st.sampled_from([-40.0, 0.0, 12.5]) | st.floats(-60.0, 60.0))
-    width_c = draw(
-        st.sampled_from([0.1, 0.25, 0.3, 0.5, 1.0, 2.0, 5.0]) | st.floats(0.01, 10.0)
-    )
+    width_c = draw(st.sampled_from([0.1, 0.25, 0.3, 0.5, 1.0, 2.0, 5.0]) | st.floats(0.01, 10.0))
     n_whole = draw(st.integers(1, 40))
     remainder = draw(st.sampled_from([0.0, 0.0, 0.5]) | st.floats(0.0, 0.999))
     hi_c = lo_c + (n_whole + remainder) * width_c
@@ -301,7 +299,9 @@ def collinear_cases(draw: st.DrawFn) -> RegressionCase:
                 column = np.zeros(n)
             else:
                 multipliers = draw(
-                    st.lists(st.integers(-3, 3), min_size=len(independent), max_size=len(independent))
+                    st.lists(
+                        st.integers(-3, 3), min_size=len(independent), max_size=len(independent)
+                    )
                 )
                 if not any(multipliers):
                     multipliers[0] = 1

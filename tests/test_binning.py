@@ -117,14 +117,16 @@ def test_bin_closure_is_lo_inclusive_hi_exclusive() -> None:
         -5.0,  # below
     ]
     stream = one_channel(temperatures)
-    binner = push_chunks(TemperatureBinner(lo_c=lo, hi_c=hi, width_c=0.5, n_channels=1), stream,
-                         [0, stream.n])
+    binner = push_chunks(
+        TemperatureBinner(lo_c=lo, hi_c=hi, width_c=0.5, n_channels=1), stream, [0, stream.n]
+    )
     out = binner.finish()
     np.testing.assert_array_equal(out.count, [2, 1, 1, 1])
     assert (out.n_below, out.n_above, out.n_nonfinite) == (2, 2, 0)
     expected = push_chunks(
-        reference.TemperatureBinner(lo_c=lo, hi_c=hi, width_c=0.5, n_channels=1), stream,
-        [0, stream.n]
+        reference.TemperatureBinner(lo_c=lo, hi_c=hi, width_c=0.5, n_channels=1),
+        stream,
+        [0, stream.n],
     ).finish()
     assert_match(out, expected, stream)
 
@@ -141,8 +143,9 @@ def test_bin_closure_is_lo_inclusive_hi_exclusive() -> None:
 )
 def test_bin_count_and_edges(lo: float, hi: float, width: float, n_bins: int) -> None:
     stream = one_channel([lo])
-    out = push_chunks(TemperatureBinner(lo_c=lo, hi_c=hi, width_c=width, n_channels=1), stream,
-                      [0, 1]).finish()
+    out = push_chunks(
+        TemperatureBinner(lo_c=lo, hi_c=hi, width_c=width, n_channels=1), stream, [0, 1]
+    ).finish()
     edges = lo + np.arange(n_bins + 1) * width
     edges[-1] = hi
     # The edges are defined by this formula, so they must match bit for bit.
@@ -157,8 +160,9 @@ def test_temperature_in_last_sliver_clamps_to_last_bin() -> None:
     t = np.nextafter(0.9, -np.inf)
     assert np.floor(t / 0.3) == 3
     stream = one_channel([t])
-    out = push_chunks(TemperatureBinner(lo_c=0.0, hi_c=0.9, width_c=0.3, n_channels=1), stream,
-                      [0, 1]).finish()
+    out = push_chunks(
+        TemperatureBinner(lo_c=0.0, hi_c=0.9, width_c=0.3, n_channels=1), stream, [0, 1]
+    ).finish()
     np.testing.assert_array_equal(out.count, [0, 0, 1])
 
 
@@ -181,8 +185,9 @@ def test_nan_policy() -> None:
 
 def test_empty_and_sparse_bins_are_nan() -> None:
     stream = one_channel([0.2, 1.2, 1.7], [5.0, 1.0, 3.0])
-    out = push_chunks(TemperatureBinner(lo_c=0.0, hi_c=3.0, width_c=1.0, n_channels=1), stream,
-                      [0, 3]).finish()
+    out = push_chunks(
+        TemperatureBinner(lo_c=0.0, hi_c=3.0, width_c=1.0, n_channels=1), stream, [0, 3]
+    ).finish()
     np.testing.assert_array_equal(out.count, [1, 2, 0])
     # Mean NaN only where the bin is empty; variance NaN where count < 2.
     np.testing.assert_array_equal(np.isnan(out.mean[:, 0]), [False, False, True])

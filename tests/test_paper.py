@@ -21,7 +21,7 @@ except ImportError:  # ... but the modules under test are pure Python: load them
     _stub.__path__ = [str(Path(__file__).resolve().parents[1] / "python" / "accelcore")]
     sys.modules["accelcore"] = _stub
 
-from accelcore import paper  # noqa: E402
+from accelcore import paper
 
 # --------------------------------------------------------------------------- eq. (1)-(4)
 

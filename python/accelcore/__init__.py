@@ -8,8 +8,9 @@ over every sample, and a diagnosis of what the model still gets wrong.
 
 from __future__ import annotations
 
-from accelcore import core
+from accelcore import core, datasheets
 from accelcore._accelcore import __version__
+from accelcore.calibration import Calibration, calibrate
 from accelcore.errors import (
     AccelcoreError,
     AccelcoreIOError,
@@ -24,20 +25,27 @@ from accelcore.errors import (
     SingularSystemError,
     TimeOrderError,
 )
+from accelcore.session import Run, Session, load_session
 
 __all__ = [
     "AccelcoreError",
     "AccelcoreIOError",
+    "Calibration",
     "CalibrationFileError",
     "IncompatibleError",
     "InsufficientDataError",
     "NonFiniteError",
     "ParameterError",
     "ParseError",
+    "Run",
+    "Session",
     "SessionFormatError",
     "ShapeError",
     "SingularSystemError",
     "TimeOrderError",
     "__version__",
+    "calibrate",
     "core",
+    "datasheets",
+    "load_session",
 ]

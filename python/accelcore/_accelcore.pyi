@@ -67,15 +67,15 @@ class Decimator:
     increase, else :class:`accelcore.TimeOrderError`.
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         *,
         factor: int = 10,
         rate_hz: float = 20.0,
         n_channels: int = 3,
         min_count: int = 1,
         t0_s: float | None = None,
-    ) -> None: ...
+    ) -> Decimator: ...
     def push(self, time_s: ArrayLike, temperature_c: ArrayLike, channels: ArrayLike) -> None:
         """Push a chunk of ``n`` samples: time (s), temperature (°C), channels ``(n, n_channels)``.
 
@@ -181,9 +181,9 @@ class TemperatureBinner:
         Data channels.
     """
 
-    def __init__(
-        self, *, lo_c: float = 0.0, hi_c: float = 60.0, width_c: float = 0.5, n_channels: int = 3
-    ) -> None: ...
+    def __new__(
+        cls, *, lo_c: float = 0.0, hi_c: float = 60.0, width_c: float = 0.5, n_channels: int = 3
+    ) -> TemperatureBinner: ...
     def push(self, time_s: ArrayLike, temperature_c: ArrayLike, channels: ArrayLike) -> None:
         """Push a chunk of ``n`` samples; rows with a non-finite value are skipped and counted."""
 
@@ -262,7 +262,8 @@ class LeastSquares:
     :meth:`merge` is exact algebra. Non-finite input raises NonFiniteError.
     """
 
-    def __init__(self, n_columns: int, *, column_names: list[str] | None = None) -> None: ...
+    def __new__(
+        cls, n_columns: int, *, column_names: list[str] | None = None) -> LeastSquares: ...
     def push(
         self, design: ArrayLike, response: ArrayLike, weights: ArrayLike | None = None
     ) -> None:

@@ -140,12 +140,21 @@ class AxisModel:
         """Inverse of :meth:`to_dict`."""
         terms = tuple(Term.from_dict(t) for t in data["terms"])
         coefficients = np.asarray(data["coefficients"], dtype=np.float64)
-        covariance = np.asarray(data["covariance"], dtype=np.float64).reshape(len(terms), len(terms))
+        covariance = np.asarray(data["covariance"], dtype=np.float64).reshape(
+            len(terms), len(terms)
+        )
         estimated = np.asarray(data["estimated"], dtype=bool)
         if coefficients.shape != (len(terms),) or estimated.shape != (len(terms),):
             raise CalibrationFileError(f"axis {axis}: terms and coefficients differ in number")
-        return cls(axis, terms, coefficients, covariance, estimated, int(data["n_samples"]),
-                   float(data["rms_residual"]))
+        return cls(
+            axis,
+            terms,
+            coefficients,
+            covariance,
+            estimated,
+            int(data["n_samples"]),
+            float(data["rms_residual"]),
+        )
 
 
 @dataclass(frozen=True)
@@ -164,7 +173,7 @@ class AxisSummary:
 
 
 def _ratio_se(num: float, var_num: float, den: float, var_den: float, cov: float) -> float:
-    """Standard error of num/den by the delta method."""
+    """Return the standard error of num/den by the delta method."""
     if den == 0:
         return math.nan
     r = num / den
@@ -242,8 +251,7 @@ class Calibration:
         offset_tc_se = 1000.0 * _ratio_se(o1, m._cov(i_o1, i_o1), s0, var_s0, m._cov(i_o1, i_s0))
         sens_tc = 100.0 * s1 / s0 if s0 else math.nan
         sens_tc_se = 100.0 * _ratio_se(s1, m._cov(i_s1, i_s1), s0, var_s0, m._cov(i_s1, i_s0))
-        return AxisSummary(axis, o0, o0_se, s0, s0_se, offset_tc, offset_tc_se, sens_tc,
-                           sens_tc_se)
+        return AxisSummary(axis, o0, o0_se, s0, s0_se, offset_tc, offset_tc_se, sens_tc, sens_tc_se)
 
     def summary(self) -> pd.DataFrame:
         """One row per axis: the four parameters with standard errors and the fit's RMS in mg."""
@@ -251,29 +259,36 @@ class Calibration:
         for a in self.axes:
             s = self.axis(a)
             m = self.axes[a]
-            rows.append({
-                "axis": a,
-                f"zero_g_offset_{self.units}": s.zero_g_offset,
-                "zero_g_offset_se": s.zero_g_offset_se,
-                f"sensitivity_{self.units}_per_g": s.sensitivity,
-                "sensitivity_se": s.sensitivity_se,
-                "offset_tc_mg_per_c": s.offset_tc_mg_per_c,
-                "offset_tc_mg_per_c_se": s.offset_tc_mg_per_c_se,
-                "sensitivity_tc_pct_per_c": s.sensitivity_tc_pct_per_c,
-                "sensitivity_tc_pct_per_c_se": s.sensitivity_tc_pct_per_c_se,
-                "rms_residual_mg": 1000.0 * m.rms_residual / s.sensitivity
-                if s.sensitivity else math.nan,
-                "n_samples": m.n_samples,
-            })
+            rows.append(
+                {
+                    "axis": a,
+                    f"zero_g_offset_{self.units}": s.zero_g_offset,
+                    "zero_g_offset_se": s.zero_g_offset_se,
+                    f"sensitivity_{self.units}_per_g": s.sensitivity,
+                    "sensitivity_se": s.sensitivity_se,
+                    "offset_tc_mg_per_c": s.offset_tc_mg_per_c,
+                    "offset_tc_mg_per_c_se": s.offset_tc_mg_per_c_se,
+                    "sensitivity_tc_pct_per_c": s.sensitivity_tc_pct_per_c,
+                    "sensitivity_tc_pct_per_c_se": s.sensitivity_tc_pct_per_c_se,
+                    "rms_residual_mg": 1000.0 * m.rms_residual / s.sensitivity
+                    if s.sensitivity
+                    else math.nan,
+                    "n_samples": m.n_samples,
+                }
+            )
         return pd.DataFrame(rows).set_index("axis")
 
     def __str__(self) -> str:
-        head = (f"Calibration ({self.method}) of {self.sensor or 'unknown sensor'}"
-                f"{' #' + self.serial if self.serial else ''}, units {self.units}, "
-                f"T_ref {self.t_ref_c:g} °C, fitted over {self.temperature_range_c[0]:.1f}"
-                f"…{self.temperature_range_c[1]:.1f} °C")
+        head = (
+            f"Calibration ({self.method}) of {self.sensor or 'unknown sensor'}"
+            f"{' #' + self.serial if self.serial else ''}, units {self.units}, "
+            f"T_ref {self.t_ref_c:g} °C, fitted over {self.temperature_range_c[0]:.1f}"
+            f"…{self.temperature_range_c[1]:.1f} °C"
+        )
         lines = [head, self.summary().to_string(float_format=lambda v: f"{v:.6g}")]
-        lines += [f"not identified: {', '.join(self.not_identified)}"] if self.not_identified else []
+        lines += (
+            [f"not identified: {', '.join(self.not_identified)}"] if self.not_identified else []
+        )
         lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
 
@@ -308,29 +323,74 @@ class Calibration:
             s = self.axis(a)
             sens_known = f"{a}:sensitivity" not in self.not_identified
             params: list[tuple[str, str, str, float, float, str]] = [
-                ("at T_ref", "sensitivity", "sensitivity", s.sensitivity, s.sensitivity_se,
-                 f"{u}/g"),
-                ("at T_ref", "zero_g_offset", "zero_g_offset", s.zero_g_offset,
-                 s.zero_g_offset_se, u),
-                ("at T_ref", "+1 g", "output_at_plus_1g", s.zero_g_offset + s.sensitivity,
-                 math.hypot(s.zero_g_offset_se, s.sensitivity_se), u),
-                ("at T_ref", "-1 g", "output_at_minus_1g", s.zero_g_offset - s.sensitivity,
-                 math.hypot(s.zero_g_offset_se, s.sensitivity_se), u),
-                ("temperature coefficients", "sensitivity_tc", "sensitivity_tc_pct_per_c",
-                 s.sensitivity_tc_pct_per_c, s.sensitivity_tc_pct_per_c_se, "%/°C"),
-                ("temperature coefficients", "offset_tc", "offset_tc_mg_per_c",
-                 s.offset_tc_mg_per_c, s.offset_tc_mg_per_c_se, "mg/°C"),
+                (
+                    "at T_ref",
+                    "sensitivity",
+                    "sensitivity",
+                    s.sensitivity,
+                    s.sensitivity_se,
+                    f"{u}/g",
+                ),
+                (
+                    "at T_ref",
+                    "zero_g_offset",
+                    "zero_g_offset",
+                    s.zero_g_offset,
+                    s.zero_g_offset_se,
+                    u,
+                ),
+                (
+                    "at T_ref",
+                    "+1 g",
+                    "output_at_plus_1g",
+                    s.zero_g_offset + s.sensitivity,
+                    math.hypot(s.zero_g_offset_se, s.sensitivity_se),
+                    u,
+                ),
+                (
+                    "at T_ref",
+                    "-1 g",
+                    "output_at_minus_1g",
+                    s.zero_g_offset - s.sensitivity,
+                    math.hypot(s.zero_g_offset_se, s.sensitivity_se),
+                    u,
+                ),
+                (
+                    "temperature coefficients",
+                    "sensitivity_tc",
+                    "sensitivity_tc_pct_per_c",
+                    s.sensitivity_tc_pct_per_c,
+                    s.sensitivity_tc_pct_per_c_se,
+                    "%/°C",
+                ),
+                (
+                    "temperature coefficients",
+                    "offset_tc",
+                    "offset_tc_mg_per_c",
+                    s.offset_tc_mg_per_c,
+                    s.offset_tc_mg_per_c_se,
+                    "mg/°C",
+                ),
             ]
             for table, label, parameter, value, se, unit in params:
                 lim = sheet.limits(parameter, a)
                 if not sens_known and parameter != "offset_tc_mg_per_c":
                     value, se = math.nan, math.nan
                 in_spec = None if lim is None or math.isnan(value) else lim.contains(value)
-                rows.append({
-                    "table": table, "parameter": label, "axis": a,
-                    "min": _lim(lim, "min"), "typ": _lim(lim, "typ"), "max": _lim(lim, "max"),
-                    "measured": value, "measured_se": se, "unit": unit, "in_spec": in_spec,
-                })
+                rows.append(
+                    {
+                        "table": table,
+                        "parameter": label,
+                        "axis": a,
+                        "min": _lim(lim, "min"),
+                        "typ": _lim(lim, "typ"),
+                        "max": _lim(lim, "max"),
+                        "measured": value,
+                        "measured_se": se,
+                        "unit": unit,
+                        "in_spec": in_spec,
+                    }
+                )
         return pd.DataFrame(rows).set_index(["table", "parameter", "axis"])
 
     def datasheet_text(self, sheet: Any = None) -> str:
@@ -339,14 +399,16 @@ class Calibration:
         out = []
         for table, part in df.groupby("table", sort=False):
             out.append(f"{table}:")
-            lines = [f"  {'parameter':<15}{'axis':<5}{'min':>10}{'typ':>10}{'max':>10}"
-                     f"{'measured':>12}{'± se':>10}  {'unit':<6}{'spec':<5}"]
-            for r in part.itertuples():
-                spec = {True: "ok", False: "OUT", None: "-"}[r.in_spec]
+            lines = [
+                f"  {'parameter':<15}{'axis':<5}{'min':>10}{'typ':>10}{'max':>10}"
+                f"{'measured':>12}{'± se':>10}  {'unit':<6}{'spec':<5}"
+            ]
+            for r in part.to_dict(orient="records"):
+                spec = {True: "ok", False: "OUT"}.get(r["in_spec"], "-")
                 lines.append(
-                    f"  {r.parameter:<15}{r.axis:<5}{_fmt(r.min):>10}{_fmt(r.typ):>10}"
-                    f"{_fmt(r.max):>10}{_fmt(r.measured, 5):>12}{_fmt(r.measured_se, 2):>10}  "
-                    f"{r.unit:<6}{spec:<5}"
+                    f"  {r['parameter']:<15}{r['axis']:<5}{_fmt(r['min']):>10}"
+                    f"{_fmt(r['typ']):>10}{_fmt(r['max']):>10}{_fmt(r['measured'], 5):>12}"
+                    f"{_fmt(r['measured_se'], 2):>10}  {r['unit']:<6}{spec:<5}"
                 )
             out += lines
         return "\n".join(out)
@@ -414,9 +476,12 @@ class Calibration:
             raise ParameterError(f"temp_c has {temp.shape[0]} values for {raw_a.shape[0]} rows")
         self._warn_range(temp)
         time_a = None if time_s is None else np.asarray(time_s, dtype=np.float64).reshape(-1)
-        feats = Features(temp, None if time_a is None else time_a - time_a[0],
-                         {k: np.asarray(v, dtype=np.float64) for k, v in (extras or {}).items()},
-                         self.t_ref_c)
+        feats = Features(
+            temp,
+            None if time_a is None else time_a - time_a[0],
+            {k: np.asarray(v, dtype=np.float64) for k, v in (extras or {}).items()},
+            self.t_ref_c,
+        )
         bases, offset, gain = self._coefficient_matrices()
         basis = np.column_stack([evaluate_basis(b, feats, self.references) for b in bases])
         return _compensate(raw_a, basis, offset, gain)
@@ -494,33 +559,41 @@ class Calibration:
         try:
             doc = json.loads(Path(path).read_text())
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise CalibrationFileError(f"{where}: not a calibration file (truncated or "
-                                       f"corrupted JSON: {exc})") from exc
+            raise CalibrationFileError(
+                f"{where}: not a calibration file (truncated or corrupted JSON: {exc})"
+            ) from exc
         if not isinstance(doc, dict) or "body" not in doc or "sha256" not in doc:
             raise CalibrationFileError(f"{where}: not an accelcore calibration file")
         body = doc["body"]
         fmt = body.get("format") if isinstance(body, dict) else None
         if fmt != CALIBRATION_FORMAT:
             raise CalibrationFileError(
-                f"{where}: format {fmt!r} is not supported; expected {CALIBRATION_FORMAT!r}")
+                f"{where}: format {fmt!r} is not supported; expected {CALIBRATION_FORMAT!r}"
+            )
         text = json.dumps(body, sort_keys=True, allow_nan=True)
         if hashlib.sha256(text.encode()).hexdigest() != doc["sha256"]:
-            raise CalibrationFileError(f"{where}: checksum mismatch: the file was modified or "
-                                       "corrupted after it was written")
+            raise CalibrationFileError(
+                f"{where}: checksum mismatch: the file was modified or "
+                "corrupted after it was written"
+            )
         if sensor is not None and (body.get("sensor") or "").lower() != sensor.lower():
             raise CalibrationFileError(
-                f"{where}: calibration is for sensor {body.get('sensor')!r}, not {sensor!r}")
+                f"{where}: calibration is for sensor {body.get('sensor')!r}, not {sensor!r}"
+            )
         if serial is not None and body.get("serial") != serial:
             raise CalibrationFileError(
-                f"{where}: calibration is for serial {body.get('serial')!r}, not {serial!r}")
+                f"{where}: calibration is for serial {body.get('serial')!r}, not {serial!r}"
+            )
         try:
             return cls(
                 method=str(body["method"]),
                 units=str(body["units"]),
                 t_ref_c=float(body["t_ref_c"]),
                 window_c=(float(body["window_c"][0]), float(body["window_c"][1])),
-                temperature_range_c=(float(body["temperature_range_c"][0]),
-                                     float(body["temperature_range_c"][1])),
+                temperature_range_c=(
+                    float(body["temperature_range_c"][0]),
+                    float(body["temperature_range_c"][1]),
+                ),
                 axes={a: AxisModel.from_dict(a, m) for a, m in body["axes"].items()},
                 not_identified=tuple(body["not_identified"]),
                 notes=tuple(body["notes"]),
@@ -539,8 +612,10 @@ def _lim(lim: Any, which: str) -> float:
     return math.nan if v is None else float(v)
 
 
-def _fmt(v: float, digits: int = 4) -> str:
-    return "" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}g}"
+def _fmt(v: object, digits: int = 4) -> str:
+    if not isinstance(v, (int, float)) or math.isnan(v):
+        return ""
+    return f"{v:.{digits}g}"
 
 
 # ---------------------------------------------------------------------- fitting
@@ -571,7 +646,8 @@ def stack_session(
     Features (elapsed time, lagged temperature) are computed on the whole run
     first and then cut to the window, so a lag filter sees the run's history.
     """
-    feats, grav, out, wts, idx = [], [], [], [], []
+    feats: list[Features] = []
+    grav, out, wts, idx = [], [], [], []
     for i, run in enumerate(session.runs):
         if runs is not None and i not in runs:
             continue
@@ -602,9 +678,12 @@ class _CutFeatures(Features):
 
     @classmethod
     def cut(cls, whole: Features, keep: NDArray[np.bool_]) -> _CutFeatures:
-        obj = cls(whole.temperature_c[keep],
-                  None if whole.time_s is None else whole.time_s[keep],
-                  {k: v[keep] for k, v in whole.extras.items()}, whole.t_ref_c)
+        obj = cls(
+            whole.temperature_c[keep],
+            None if whole.time_s is None else whole.time_s[keep],
+            {k: v[keep] for k, v in whole.extras.items()},
+            whole.t_ref_c,
+        )
         obj._whole = whole
         obj._keep = keep
         return obj
@@ -630,8 +709,9 @@ def fit_axis(
     """
     a = AXES.index(axis)
     parts = range(len(data.features)) if rows is None else rows
-    design = np.vstack([design_columns(terms, data.features[i], data.gravity[i], references)
-                        for i in parts])
+    design = np.vstack(
+        [design_columns(terms, data.features[i], data.gravity[i], references) for i in parts]
+    )
     response = np.concatenate([data.output[i][:, a] for i in parts])
     weight = np.concatenate([data.weight[i] for i in parts])
     p = len(terms)
@@ -667,10 +747,13 @@ def fit_axis(
                 raise InsufficientDataError(
                     f"axis {axis}: offset and sensitivity cannot be told apart with these "
                     "orientations and no nominal sensitivity is known; log the opposite "
-                    f"orientation (O{axis.upper()}+ and O{axis.upper()}-) or name the sensor")
+                    f"orientation (O{axis.upper()}+ and O{axis.upper()}-) or name the sensor"
+                )
             fixed[j] = nominal
-            notes.append(f"{axis}: sensitivity held at nominal {nominal:g} (not identified by "
-                         "these orientations); the fitted offset absorbs the rest")
+            notes.append(
+                f"{axis}: sensitivity held at nominal {nominal:g} (not identified by "
+                "these orientations); the fitted offset absorbs the rest"
+            )
         fixed_names.append(names[j])
     # Refit if a nominal was introduced after the loop (response changed).
     if np.any(fixed != 0):
@@ -685,8 +768,9 @@ def fit_axis(
     cols = np.flatnonzero(estimated)
     covariance[np.ix_(cols, cols)] = sol.covariance
     rms = math.sqrt(sol.residual_sum_squares / weight.sum())
-    model = AxisModel(axis, tuple(terms), coefficients, covariance, estimated,
-                      int(response.shape[0]), rms)
+    model = AxisModel(
+        axis, tuple(terms), coefficients, covariance, estimated, int(response.shape[0]), rms
+    )
     return model, fixed_names, notes
 
 
@@ -703,7 +787,7 @@ def _extra_references(session: Session, terms: Mapping[str, Sequence[Term]]) -> 
     for ts in terms.values():
         for t in ts:
             if t.basis.startswith("extra:") and t.basis not in refs:
-                name = t.basis[len("extra:"):]
+                name = t.basis[len("extra:") :]
                 values = np.concatenate([r.extras[name] for r in session.runs if name in r.extras])
                 refs[t.basis] = float(np.median(values))
     return refs
@@ -724,8 +808,9 @@ def _fit_joint(
     not_identified: list[str] = []
     notes: list[str] = []
     for i, a in enumerate(AXES):
-        model, fixed, axis_notes = fit_axis(a, terms[a], data, None if nominal is None
-                                            else nominal[i], refs)
+        model, fixed, axis_notes = fit_axis(
+            a, terms[a], data, None if nominal is None else nominal[i], refs
+        )
         axes[a] = model
         not_identified += fixed
         notes += axis_notes
@@ -741,8 +826,9 @@ def _fit_paper(
     """Equations 8–10 per temperature bin, then line fits (the seed paper's method)."""
     binners: dict[str, core.TemperatureBinner] = {}
     for run in session.runs:
-        b = core.TemperatureBinner(lo_c=window_c[0], hi_c=window_c[1], width_c=bin_width_c,
-                                   n_channels=3)
+        b = core.TemperatureBinner(
+            lo_c=window_c[0], hi_c=window_c[1], width_c=bin_width_c, n_channels=3
+        )
         b.push(run.time_s, run.temperature_c, run.output)
         if run.orientation in binners:
             binners[run.orientation].merge(b)  # repeat sweeps of one orientation
@@ -757,19 +843,33 @@ def _fit_paper(
         plus, minus = stats.get(f"O{a.upper()}+"), stats.get(f"O{a.upper()}-")
         terms = base_terms(a)
         if plus is None or minus is None:
-            not_identified += [f"{a}:offset", f"{a}:offset_tc", f"{a}:sensitivity",
-                               f"{a}:sensitivity_tc"]
-            notes.append(f"{a}: the paper's method needs both O{a.upper()}+ and "
-                         f"O{a.upper()}- runs; use method='joint' for partial sessions")
-            axes[a] = AxisModel(a, terms, np.full(4, np.nan), np.full((4, 4), np.nan),
-                                np.zeros(4, dtype=bool), 0, math.nan)
+            not_identified += [
+                f"{a}:offset",
+                f"{a}:offset_tc",
+                f"{a}:sensitivity",
+                f"{a}:sensitivity_tc",
+            ]
+            notes.append(
+                f"{a}: the paper's method needs both O{a.upper()}+ and "
+                f"O{a.upper()}- runs; use method='joint' for partial sessions"
+            )
+            axes[a] = AxisModel(
+                a,
+                terms,
+                np.full(4, np.nan),
+                np.full((4, 4), np.nan),
+                np.zeros(4, dtype=bool),
+                0,
+                math.nan,
+            )
             continue
         both = (plus.count > 0) & (minus.count > 0)
         if np.count_nonzero(both) < 3:
             raise InsufficientDataError(
                 f"axis {a}: only {np.count_nonzero(both)} temperature bins hold both "
                 f"O{a.upper()}+ and O{a.upper()}- data; need at least 3 (log sweeps that "
-                f"overlap in {window_c[0]}…{window_c[1]} °C)")
+                f"overlap in {window_c[0]}…{window_c[1]} °C)"
+            )
         v_pos, v_neg = plus.mean[both, i], minus.mean[both, i]
         temp = 0.5 * (plus.temperature_c[both] + minus.temperature_c[both])
         zero_g = 0.5 * (v_pos + v_neg)  # equation (8)
@@ -782,16 +882,24 @@ def _fit_paper(
             lsq = core.LeastSquares(2, column_names=["value_at_t_ref", "slope_per_c"])
             lsq.push(design, y)
             sol = lsq.finish()
-            coefficients[k:k + 2] = sol.coefficients
-            covariance[k:k + 2, k:k + 2] = sol.covariance
+            coefficients[k : k + 2] = sol.coefficients
+            covariance[k : k + 2, k : k + 2] = sol.covariance
             rss += sol.residual_sum_squares
-        axes[a] = AxisModel(a, terms, coefficients, covariance, np.ones(4, dtype=bool),
-                            int(np.count_nonzero(both)), math.sqrt(rss / (2 * both.sum())))
+        axes[a] = AxisModel(
+            a,
+            terms,
+            coefficients,
+            covariance,
+            np.ones(4, dtype=bool),
+            int(np.count_nonzero(both)),
+            math.sqrt(rss / (2 * both.sum())),
+        )
         t_lo, t_hi = min(t_lo, float(temp.min())), max(t_hi, float(temp.max()))
     if math.isinf(t_lo):
         raise InsufficientDataError(
             "the paper's method needs, for at least one axis, both of its orientations "
-            f"(runs here: {', '.join(session.orientations)}); use method='joint'")
+            f"(runs here: {', '.join(session.orientations)}); use method='joint'"
+        )
     return axes, not_identified, notes, (t_lo, t_hi)
 
 
@@ -834,29 +942,44 @@ def calibrate(
     """
     if method not in ("joint", "paper"):
         raise ParameterError(f"method must be 'joint' or 'paper', got {method!r}")
-    options: dict[str, Any] = {"method": method, "t_ref_c": t_ref_c,
-                               "window_c": None if window_c is None else list(window_c),
-                               "bin_width_c": bin_width_c,
-                               "decimation_factor": session.decimation_factor}
+    options: dict[str, Any] = {
+        "method": method,
+        "t_ref_c": t_ref_c,
+        "window_c": None if window_c is None else list(window_c),
+        "bin_width_c": bin_width_c,
+        "decimation_factor": session.decimation_factor,
+    }
     refs: dict[str, float] = {}
     if method == "paper":
         if terms is not None:
             raise ParameterError("terms= applies to method='joint' only")
         axes, not_identified, notes, t_range = _fit_paper(
-            session, t_ref_c, window_c or (-273.15, 1000.0), bin_width_c)
+            session, t_ref_c, window_c or (-273.15, 1000.0), bin_width_c
+        )
     else:
-        model_terms = {a: tuple(terms[a]) if terms and a in terms else base_terms(a)
-                       for a in AXES}
+        model_terms = {a: tuple(terms[a]) if terms and a in terms else base_terms(a) for a in AXES}
         axes, not_identified, notes, t_range, refs = _fit_joint(
-            session, model_terms, t_ref_c, window_c)
-    provenance: dict[str, Any] = {"accelcore_version": __version__,
-                                  "session_path": session.path,
-                                  "files_sha256": session.file_hashes()}
+            session, model_terms, t_ref_c, window_c
+        )
+    provenance: dict[str, Any] = {
+        "accelcore_version": __version__,
+        "session_path": session.path,
+        "files_sha256": session.file_hashes(),
+    }
     return Calibration(
-        method=method, units=session.units, t_ref_c=float(t_ref_c),
-        window_c=(-math.inf, math.inf) if window_c is None else (float(window_c[0]),
-                                                                   float(window_c[1])),
-        temperature_range_c=t_range, axes=axes, not_identified=tuple(not_identified),
-        notes=tuple(notes), sensor=session.sensor, serial=session.serial, references=refs,
-        options=options, provenance=provenance,
+        method=method,
+        units=session.units,
+        t_ref_c=float(t_ref_c),
+        window_c=(-math.inf, math.inf)
+        if window_c is None
+        else (float(window_c[0]), float(window_c[1])),
+        temperature_range_c=t_range,
+        axes=axes,
+        not_identified=tuple(not_identified),
+        notes=tuple(notes),
+        sensor=session.sensor,
+        serial=session.serial,
+        references=refs,
+        options=options,
+        provenance=provenance,
     )

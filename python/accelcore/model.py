@@ -89,19 +89,26 @@ class Term:
 
     def to_dict(self) -> dict[str, str | None]:
         """Plain-data form for JSON."""
-        return {"kind": self.kind, "basis": self.basis, "source": self.source,
-                "effect": self.effect}
+        return {
+            "kind": self.kind,
+            "basis": self.basis,
+            "source": self.source,
+            "effect": self.effect,
+        }
 
     @classmethod
     def from_dict(cls, data: Mapping[str, object]) -> Term:
         """Inverse of :meth:`to_dict`."""
         kind = data["kind"]
-        if kind not in ("offset", "gain"):
+        if kind != "offset" and kind != "gain":
             raise ParameterError(f"unknown term kind {kind!r}")
         source = data.get("source")
-        return cls(kind=kind, basis=str(data["basis"]),  # type: ignore[arg-type]
-                   source=None if source is None else str(source),
-                   effect=str(data.get("effect", "base")))
+        return cls(
+            kind=kind,
+            basis=str(data["basis"]),
+            source=None if source is None else str(source),
+            effect=str(data.get("effect", "base")),
+        )
 
 
 def base_terms(axis: str) -> tuple[Term, ...]:
@@ -186,7 +193,7 @@ def evaluate_basis(
     if basis == "elapsed_h":
         return features._need_time(basis) / 3600.0
     if basis.startswith("extra:"):
-        name = basis[len("extra:"):]
+        name = basis[len("extra:") :]
         if name not in features.extras:
             raise ParameterError(
                 f"the model uses the extra column {name!r}, which the data does not have"

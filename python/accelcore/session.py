@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import hashlib
 import math
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import tomllib
 from numpy.typing import ArrayLike, NDArray
 
 from accelcore import core
@@ -261,20 +261,25 @@ class Session:
         for orientation, data in runs:
             gravity = gravity_of(orientation)
             table = {str(k): np.asarray(data[k], dtype=np.float64) for k in data}
-            missing = [names[k] for k in ("time", "temperature", "x", "y", "z")
-                       if names[k] not in table]
+            missing = [
+                names[k] for k in ("time", "temperature", "x", "y", "z") if names[k] not in table
+            ]
             if missing:
                 raise SessionFormatError(
                     f"run {orientation}: missing column(s) {', '.join(missing)}; "
                     f"found {', '.join(table)}"
                 )
             required = [names[k] for k in ("x", "y", "z")]
-            extra_names = [k for k in table
-                           if k not in required and k not in (names["time"], names["temperature"])]
+            extra_names = [
+                k
+                for k in table
+                if k not in required and k not in (names["time"], names["temperature"])
+            ]
             channels = np.column_stack([table[k] for k in required + extra_names])
             time_s = table[names["time"]]
-            dec = core.Decimator(factor=decimation_factor, rate_hz=rate_hz,
-                                 n_channels=channels.shape[1])
+            dec = core.Decimator(
+                factor=decimation_factor, rate_hz=rate_hz, n_channels=channels.shape[1]
+            )
             dec.push(time_s, table[names["temperature"]], channels)
             blocks = dec.finish()
             finite = time_s[np.isfinite(time_s)]
@@ -283,10 +288,18 @@ class Session:
                 n_skipped_nonfinite=dec.n_skipped_nonfinite,
                 duration_s=float(finite[-1] - finite[0]) if finite.size else 0.0,
             )
-            built.append(_make_run(orientation.strip().upper(), gravity, blocks, extra_names,
-                                   None, stats))
-        return cls(runs=tuple(built), units=units, rate_hz=float(rate_hz), sensor=sensor,
-                   serial=serial, path=None, decimation_factor=decimation_factor)
+            built.append(
+                _make_run(orientation.strip().upper(), gravity, blocks, extra_names, None, stats)
+            )
+        return cls(
+            runs=tuple(built),
+            units=units,
+            rate_hz=float(rate_hz),
+            sensor=sensor,
+            serial=serial,
+            path=None,
+            decimation_factor=decimation_factor,
+        )
 
 
 def _make_run(
@@ -376,9 +389,7 @@ def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: in
         raise SessionFormatError(f"{where}: rate_hz must be a positive number, got {rate_hz!r}")
     delimiter = meta.get("delimiter", ",")
     if delimiter not in DELIMITERS:
-        raise SessionFormatError(
-            f"{where}: delimiter must be ',', '\\t' or ';', got {delimiter!r}"
-        )
+        raise SessionFormatError(f"{where}: delimiter must be ',', '\\t' or ';', got {delimiter!r}")
     time_unit = meta.get("time_unit", "s")
     if time_unit not in TIME_UNITS:
         raise SessionFormatError(
@@ -387,7 +398,9 @@ def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: in
     columns = {**DEFAULT_COLUMNS, **meta.get("columns", {})}
     unknown = set(columns) - set(DEFAULT_COLUMNS)
     if unknown:
-        raise SessionFormatError(f"{where}: unknown key(s) in [columns]: {', '.join(sorted(unknown))}")
+        raise SessionFormatError(
+            f"{where}: unknown key(s) in [columns]: {', '.join(sorted(unknown))}"
+        )
     run_tables = meta.get("run")
     if not isinstance(run_tables, list) or not run_tables:
         raise SessionFormatError(f"{where}: no [[run]] table; a session needs at least one run")
@@ -427,10 +440,24 @@ def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: in
             n_at_min=data.n_at_min,
             n_at_max=data.n_at_max,
         )
-        runs.append(_make_run(str(table["orientation"]).strip().upper(), gravity, data.blocks,
-                              data.channel_names[3:], str(file), stats))
+        runs.append(
+            _make_run(
+                str(table["orientation"]).strip().upper(),
+                gravity,
+                data.blocks,
+                data.channel_names[3:],
+                str(file),
+                stats,
+            )
+        )
     sensor = meta.get("sensor") or None
     serial = meta.get("serial") or None
-    return Session(runs=tuple(runs), units=units, rate_hz=float(rate_hz),
-                   sensor=str(sensor) if sensor else None, serial=str(serial) if serial else None,
-                   path=str(folder), decimation_factor=decimation_factor)
+    return Session(
+        runs=tuple(runs),
+        units=units,
+        rate_hz=float(rate_hz),
+        sensor=str(sensor) if sensor else None,
+        serial=str(serial) if serial else None,
+        path=str(folder),
+        decimation_factor=decimation_factor,
+    )

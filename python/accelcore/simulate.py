@@ -113,7 +113,7 @@ def _axis3(value: npt.ArrayLike, name: str) -> FloatArray:
     return arr
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, init=False)
 class SensorTruth:
     """The true linear thermal model of one sensor, per axis (x, y, z).
 
@@ -143,21 +143,30 @@ class SensorTruth:
     sensitivity_per_g: FloatArray
     offset_tc_mg_per_c: FloatArray
     sensitivity_tc_pct_per_c: FloatArray
-    reference_temperature_c: float = paper.REFERENCE_TEMPERATURE_C
+    reference_temperature_c: float
 
-    def __post_init__(self) -> None:
-        if self.units not in ("V", "LSB"):
-            raise ValueError(f"units must be 'V' or 'LSB', got {self.units!r}")
-        for name in (
-            "zero_g_offset",
-            "sensitivity_per_g",
-            "offset_tc_mg_per_c",
-            "sensitivity_tc_pct_per_c",
+    def __init__(
+        self,
+        units: str,
+        zero_g_offset: npt.ArrayLike,
+        sensitivity_per_g: npt.ArrayLike,
+        offset_tc_mg_per_c: npt.ArrayLike,
+        sensitivity_tc_pct_per_c: npt.ArrayLike,
+        reference_temperature_c: float = paper.REFERENCE_TEMPERATURE_C,
+    ) -> None:
+        if units not in ("V", "LSB"):
+            raise ValueError(f"units must be 'V' or 'LSB', got {units!r}")
+        object.__setattr__(self, "units", units)
+        for name, value in (
+            ("zero_g_offset", zero_g_offset),
+            ("sensitivity_per_g", sensitivity_per_g),
+            ("offset_tc_mg_per_c", offset_tc_mg_per_c),
+            ("sensitivity_tc_pct_per_c", sensitivity_tc_pct_per_c),
         ):
-            object.__setattr__(self, name, _axis3(getattr(self, name), name))
+            object.__setattr__(self, name, _axis3(value, name))
         if np.any(self.sensitivity_per_g == 0.0):
             raise ValueError("sensitivity_per_g must be non-zero on every axis")
-        t_ref = float(self.reference_temperature_c)
+        t_ref = float(reference_temperature_c)
         if not math.isfinite(t_ref):
             raise ValueError("reference_temperature_c must be finite")
         object.__setattr__(self, "reference_temperature_c", t_ref)
@@ -369,7 +378,8 @@ def _supply_column(state: RunState, rng: np.random.Generator, supply_v: float) -
 EXTRA_COLUMNS: Final = ("supply_v", "die_temp_c")
 """Extra columns :func:`session` can add: supply voltage (V) and the true die temperature (°C)."""
 
-_EXTRA_FORMATS: Final = {"supply_v": "%.5f", "die_temp_c": "%.4f"}
+_EXTRA_DECIMALS: Final = {"supply_v": 5, "die_temp_c": 4}
+_TEMP_DECIMALS: Final = 3
 
 
 @dataclass(frozen=True)
@@ -402,8 +412,10 @@ class SimulatedRun:
     file : str
         The file name :func:`session` would give it.
     columns : dict of str to ndarray
-        ``time_s``, ``temp_c``, ``x``, ``y``, ``z`` and any extra columns, exactly
-        the values :func:`session` writes (before text formatting).
+        ``time_s``, ``temp_c``, ``x``, ``y``, ``z`` and any extra columns: the
+        values :func:`session` writes. Temperatures (1 m°C) and extra columns
+        are rounded to their printed decimals; ``x``, ``y``, ``z`` are the exact
+        quantised values, which the files print to a small fraction of an LSB.
     die_temp_c : ndarray
         True die temperature, °C.
     """
@@ -746,13 +758,13 @@ def _runs(cfg: _Config) -> Iterator[SimulatedRun]:
         out = _quantise(state.output, cfg)
         columns: dict[str, FloatArray] = {
             "time_s": time_s,
-            "temp_c": np.asarray(state.logged_temp_c, dtype=np.float64),
+            "temp_c": np.round(state.logged_temp_c, _TEMP_DECIMALS),
             "x": out[:, 0].copy(),
             "y": out[:, 1].copy(),
             "z": out[:, 2].copy(),
         }
         for name in cfg.extra_columns:
-            columns[name] = extra_makers[name](state, rng)
+            columns[name] = np.round(extra_makers[name](state, rng), _EXTRA_DECIMALS[name])
         yield SimulatedRun(
             orientation=orientation, file=file, columns=columns, die_temp_c=state.die_temp_c
         )
@@ -776,8 +788,8 @@ def _value_format(cfg: _Config) -> str:
 def _write_csv(path: Path, run: SimulatedRun, cfg: _Config) -> None:
     names = list(run.columns)
     value_fmt = _value_format(cfg)
-    formats = [f"%.{_time_decimals(cfg.rate_hz)}f", "%.3f", value_fmt, value_fmt, value_fmt]
-    formats += [_EXTRA_FORMATS[n] for n in names[len(_BASE_COLUMNS) :]]
+    formats = [f"%.{_time_decimals(cfg.rate_hz)}f", f"%.{_TEMP_DECIMALS}f"]
+    formats += [value_fmt] * 3 + [f"%.{_EXTRA_DECIMALS[n]}f" for n in names[len(_BASE_COLUMNS) :]]
     row = ",".join(formats) + "\n"
     table = np.column_stack([run.columns[n] for n in names])
     with path.open("w", encoding="ascii", newline="\n") as fh:

@@ -64,16 +64,13 @@ from __future__ import annotations
 import math
 import os
 import re
-import sys
+import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, Final
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10 needs the tomli backport
-    import tomli as tomllib
+from accelcore.errors import AccelcoreError
 
 __all__ = [
     "AXES",
@@ -150,7 +147,7 @@ _MEASURED_KEYS: Final = (
 )
 
 
-class DatasheetError(ValueError):
+class DatasheetError(AccelcoreError, ValueError):
     """A datasheet file or mapping breaks the schema, or a part is unknown."""
 
 

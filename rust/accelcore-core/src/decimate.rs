@@ -323,7 +323,7 @@ impl Decimator {
     /// must `t0` when both pieces know it (bitwise); a piece without `t0` adopts
     /// the other's. The valid samples of the two pieces must not overlap in
     /// time (either order is fine). Blocks with the same index are combined.
-    /// A drained decimator cannot absorb a piece that precedes it.
+    /// A drained piece cannot be combined with a piece that precedes it in time.
     /// All failures are [`Error::Incompatible`] and leave `self` unchanged.
     pub fn merge(&mut self, other: &Decimator) -> Result<()> {
         let (a, b) = (&self.config, &other.config);
@@ -703,10 +703,10 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
         let mut n_skipped = 0u64;
         let (mut first_valid, mut last_valid) = (self.first_valid, self.last_valid);
         for (t, temp, row) in rows {
-            // `v - v` is 0 for finite v and NaN otherwise: one branch per row.
-            let mut z = (t - t) + (temp - temp);
+            // `v * 0.0` is ±0 for finite v and NaN otherwise: one branch per row.
+            let mut z = t * 0.0 + temp * 0.0;
             for &v in row {
-                z += v - v;
+                z += v * 0.0;
             }
             if z != 0.0 {
                 n_skipped += 1;
@@ -751,7 +751,7 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ndarray::Array2;
+    use ndarray::{Array2, Axis, Slice};
 
     fn cfg(factor: usize, rate_hz: f64, nc: usize) -> DecimatorConfig {
         DecimatorConfig {
@@ -818,6 +818,108 @@ mod tests {
         let out = d.finish().unwrap();
         assert_eq!(out.block_index, vec![0, 1]);
         assert_eq!(out.channels, vec![2.0, 5.0]);
+    }
+
+    /// Naive block means straight from the formula, for cross-checking the hot loop.
+    fn naive(c: &DecimatorConfig, t: &[f64], temp: &[f64], ch: &Array2<f64>) -> DecimatedBlocks {
+        let nc = c.n_channels;
+        let t0 = c.t0_s.unwrap_or(t[0]);
+        let mut blocks: Vec<(i64, Vec<f64>)> = Vec::new(); // (k, [count, st, stemp, ch...])
+        for i in 0..t.len() {
+            let row = ch.row(i);
+            if !(t[i].is_finite() && temp[i].is_finite() && row.iter().all(|v| v.is_finite())) {
+                continue;
+            }
+            let k = ((t[i] - t0) * c.rate_hz / c.factor as f64).floor() as i64;
+            if blocks.last().is_none_or(|b| b.0 != k) {
+                blocks.push((k, vec![0.0; 3 + nc]));
+            }
+            let acc = &mut blocks.last_mut().unwrap().1;
+            acc[0] += 1.0;
+            acc[1] += t[i];
+            acc[2] += temp[i];
+            for j in 0..nc {
+                acc[3 + j] += row[j];
+            }
+        }
+        let mut out = DecimatedBlocks::with_capacity(nc, blocks.len());
+        for (k, a) in blocks {
+            if a[0] as usize >= c.min_count {
+                out.push_mean(k, a[0] as u64, a[1], a[2], &a[3..]);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn all_channel_paths_match_naive() {
+        let n = 5000; // more than one strided buffer (2048 rows)
+        let t: Vec<f64> = (0..n)
+            .map(|i| 100.0 + i as f64 * 0.05 + (i / 700) as f64)
+            .collect();
+        let temp: Vec<f64> = (0..n).map(|i| 20.0 + (i % 97) as f64 * 0.1).collect();
+        for nc in [0, 1, 3, 6, 7, 11] {
+            let mut ch = Array2::from_shape_fn((n, nc), |(i, j)| ((i * 31 + j * 7) % 101) as f64);
+            if nc > 0 {
+                ch[[17, nc - 1]] = f64::NAN;
+                ch[[2500, 0]] = f64::INFINITY;
+            }
+            let c = DecimatorConfig {
+                min_count: 3,
+                ..cfg(7, 20.0, nc)
+            };
+            let expected = naive(&c, &t, &temp, &ch);
+            let fortran = ch.t().as_standard_layout().to_owned();
+            let strided_rows = {
+                let mut big = Array2::zeros((2 * n, nc));
+                big.slice_axis_mut(Axis(0), Slice::new(0, None, 2))
+                    .assign(&ch);
+                big
+            };
+            for view in [
+                ch.view(),
+                fortran.t(),
+                strided_rows.slice_axis(Axis(0), Slice::new(0, None, 2)),
+            ] {
+                let mut d = Decimator::new(c.clone()).unwrap();
+                let (head, tail) = view.split_at(Axis(0), 1234);
+                d.push(&t[..1234], &temp[..1234], head).unwrap();
+                d.push(&t[1234..], &temp[1234..], tail).unwrap();
+                assert_eq!(d.finish().unwrap(), expected, "n_channels = {nc}");
+                let skipped = if nc > 0 { 2 } else { 0 };
+                assert_eq!(d.n_skipped_nonfinite(), skipped);
+            }
+        }
+    }
+
+    #[test]
+    fn huge_block_indices_do_not_split_blocks() {
+        // x beyond 2^53 and beyond i64: the fast range check must not open duplicate blocks.
+        let c = DecimatorConfig {
+            t0_s: Some(-1e300),
+            ..cfg(1, 1.0, 0)
+        };
+        let mut d = Decimator::new(c).unwrap();
+        let t = [1e16, 1e16 + 2.0, 1e16 + 4.0, 1e300];
+        d.push(&t, &[1.0; 4], Array2::zeros((4, 0)).view()).unwrap();
+        let out = d.finish().unwrap();
+        assert_eq!(out.block_index, vec![i64::MAX]);
+        assert_eq!(out.count, vec![4]);
+        // t - t0 rounds to 2^60 for every sample: one block, not four
+        let c = DecimatorConfig {
+            t0_s: Some(-(2f64.powi(60))),
+            ..cfg(1, 1.0, 0)
+        };
+        let mut d = Decimator::new(c).unwrap();
+        d.push(
+            &[0.0, 1.0, 2.0, 3.0],
+            &[1.0; 4],
+            Array2::zeros((4, 0)).view(),
+        )
+        .unwrap();
+        let out = d.finish().unwrap();
+        assert_eq!(out.block_index, vec![1_i64 << 60]);
+        assert_eq!(out.count, vec![4]);
     }
 
     #[test]

@@ -1,0 +1,157 @@
+"""The streaming log reader: what each kind of bad input gets, and that good input is exact."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import accelcore
+from accelcore._accelcore import read_run
+from accelcore.reference import Decimator as RefDecimator
+
+HEADER = "time_s,temp_c,x,y,z\n"
+
+
+def _log(tmp_path: Path, text: str | bytes, name: str = "run.csv") -> str:
+    path = tmp_path / name
+    if isinstance(text, str):
+        path.write_text(text, newline="")
+    else:
+        path.write_bytes(text)
+    return str(path)
+
+
+def _rows(n: int, rate_hz: float = 20.0) -> str:
+    t = np.arange(n) / rate_hz
+    lines = [
+        f"{ti:.2f},{20 + 0.01 * i:.3f},{1.5 + 0.001 * i:.6f},1.48,1.84" for i, ti in enumerate(t)
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def test_good_log_matches_reference_decimation(tmp_path: Path) -> None:
+    path = _log(tmp_path, HEADER + _rows(95))
+    data = read_run(path)
+    raw = np.loadtxt(path, delimiter=",", skiprows=1)
+    ref = RefDecimator(factor=10, rate_hz=20.0, n_channels=3)
+    ref.push(raw[:, 0], raw[:, 1], raw[:, 2:])
+    expected = ref.finish()
+    # Same parsed doubles, same block sums in the same order: equal to rounding of the mean.
+    np.testing.assert_allclose(data.blocks.channels, expected.channels, rtol=1e-15)
+    np.testing.assert_array_equal(data.blocks.count, expected.count)
+    assert data.n_rows == 95
+    assert data.channel_names == ["x", "y", "z"]
+
+
+def test_extra_columns_are_kept_as_observables(tmp_path: Path) -> None:
+    text = "time_s,temp_c,x,y,z,supply_v\n" + "".join(
+        f"{i / 20:.2f},20.0,1.5,1.5,1.8,{3.0 + 0.001 * i}\n" for i in range(20)
+    )
+    data = read_run(_log(tmp_path, text))
+    assert data.channel_names == ["x", "y", "z", "supply_v"]
+    np.testing.assert_allclose(data.blocks.channels[:, 3], [3.0045, 3.0145], rtol=1e-12)
+
+
+def test_crlf_and_byte_order_mark_are_accepted(tmp_path: Path) -> None:
+    text = ("\ufeff" + HEADER + _rows(20)).replace("\n", "\r\n").encode("utf-8")
+    data = read_run(_log(tmp_path, text))
+    assert data.n_rows == 20
+    assert data.header[0] == "time_s"
+
+
+def test_non_numeric_cell_names_file_line_and_column(tmp_path: Path) -> None:
+    rows = _rows(10).splitlines()
+    rows[4] = rows[4].replace("1.48", "1.4B")
+    path = _log(tmp_path, HEADER + "\n".join(rows) + "\n")
+    with pytest.raises(accelcore.ParseError) as info:
+        read_run(path)
+    err = info.value
+    assert (err.path, err.line, err.column) == (path, 6, 4)  # header is line 1
+    assert "1.4B" in str(err) and "'y'" in str(err)
+    assert isinstance(err, ValueError)
+
+
+def test_missing_column_lists_what_was_found(tmp_path: Path) -> None:
+    path = _log(tmp_path, "time_s,temp_c,x,y,zz\n0,1,2,3,4\n")
+    with pytest.raises(accelcore.ParseError, match=r"missing column\(s\) 'z'.*'zz'") as info:
+        read_run(path)
+    assert info.value.line == 1
+
+
+def test_other_delimiter_is_suggested(tmp_path: Path) -> None:
+    path = _log(tmp_path, HEADER.replace(",", ";") + "0;1;2;3;4\n")
+    with pytest.raises(accelcore.ParseError, match="is the delimiter ';'"):
+        read_run(path)
+    assert read_run(path, delimiter=";").n_rows == 1
+
+
+@pytest.mark.parametrize("text", ["", "\n\n"])
+def test_empty_file(tmp_path: Path, text: str) -> None:
+    with pytest.raises(accelcore.ParseError, match="empty file"):
+        read_run(_log(tmp_path, text))
+
+
+def test_header_only(tmp_path: Path) -> None:
+    with pytest.raises(accelcore.ParseError, match="no data rows"):
+        read_run(_log(tmp_path, HEADER))
+
+
+def test_truncated_last_line_is_dropped_and_counted(tmp_path: Path) -> None:
+    data = read_run(_log(tmp_path, HEADER + _rows(20) + "1.00,20.2,1.5"))
+    assert data.n_rows == 20
+    assert data.n_truncated_rows == 1
+
+
+def test_short_line_in_the_middle_is_an_error(tmp_path: Path) -> None:
+    rows = _rows(10).splitlines()
+    rows[2] = "0.10,20.0,1.5"
+    with pytest.raises(accelcore.ParseError, match="3 fields where the header") as info:
+        read_run(_log(tmp_path, HEADER + "\n".join(rows) + "\n"))
+    assert info.value.line == 4
+
+
+@pytest.mark.parametrize(("bad", "word"), [("0.10", "repeats"), ("0.01", "goes backwards")])
+def test_time_going_backwards_or_repeating_names_the_line(
+    tmp_path: Path, bad: str, word: str
+) -> None:
+    rows = _rows(10).splitlines()
+    rows[3] = bad + rows[3][4:]
+    with pytest.raises(accelcore.ParseError, match=word) as info:
+        read_run(_log(tmp_path, HEADER + "\n".join(rows) + "\n"))
+    assert (info.value.line, info.value.column) == (5, 1)
+
+
+def test_nan_inf_and_empty_cells_are_skipped_and_counted(tmp_path: Path) -> None:
+    rows = _rows(20).splitlines()
+    rows[1] = rows[1].replace("1.48", "nan")
+    rows[2] = rows[2].replace("1.48", "inf")
+    rows[3] = rows[3].replace("1.48", "")
+    data = read_run(_log(tmp_path, HEADER + "\n".join(rows) + "\n"))
+    assert data.n_skipped_nonfinite == 3
+    assert data.blocks.count.tolist() == [7, 10]
+
+
+def test_gap_keeps_later_blocks_aligned_and_is_reported(tmp_path: Path) -> None:
+    t = np.r_[np.arange(20), np.arange(20) + 53] / 20.0  # 1.65 s hole
+    text = HEADER + "".join(f"{ti:.2f},20,1,1,1\n" for ti in t)
+    data = read_run(_log(tmp_path, text))
+    # Blocks are 0.5 s wide from t0 = 0: the samples after the hole start at 2.65 s -> block 5.
+    assert data.blocks.block_index.tolist() == [0, 1, 5, 6, 7]
+    assert data.n_gaps == 1
+    assert data.max_interval_s == pytest.approx(1.7)
+
+
+def test_clipping_counts_samples_at_the_rails(tmp_path: Path) -> None:
+    text = HEADER + "".join(f"{i / 20:.2f},20,1.5,1.5,{min(2.0 + i, 3.3)}\n" for i in range(30))
+    data = read_run(_log(tmp_path, text))
+    assert data.channel_max[2] == 3.3
+    assert data.n_at_max[2] == 28
+
+
+def test_missing_file_is_an_os_error(tmp_path: Path) -> None:
+    with pytest.raises(accelcore.AccelcoreIOError) as info:
+        read_run(str(tmp_path / "nope.csv"))
+    assert isinstance(info.value, OSError)
+    assert info.value.path.endswith("nope.csv")
