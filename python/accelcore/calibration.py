@@ -942,6 +942,7 @@ def calibrate(
     """
     if method not in ("joint", "paper"):
         raise ParameterError(f"method must be 'joint' or 'paper', got {method!r}")
+    session.check_orientations()
     options: dict[str, Any] = {
         "method": method,
         "t_ref_c": t_ref_c,

@@ -206,6 +206,33 @@ class Session:
             common &= set(r.extras)
         return tuple(k for k in self.runs[0].extras if k in common)
 
+    def check_orientations(self) -> None:
+        """Check that each run's output agrees with its declared orientation.
+
+        For every axis logged both ways up, the mean output of the ``+`` runs must
+        exceed that of the ``-`` runs (a positive sensitivity). Swapped files
+        would otherwise give a silently negative sensitivity.
+
+        Raises
+        ------
+        accelcore.SessionFormatError
+            Naming the runs that look swapped.
+        """
+        for a, axis in enumerate(AXES):
+            plus = [r for r in self.runs if r.gravity_g[a] > 0 and len(r)]
+            minus = [r for r in self.runs if r.gravity_g[a] < 0 and len(r)]
+            if not plus or not minus:
+                continue
+            mean_plus = float(np.mean([np.median(r.output[:, a]) for r in plus]))
+            mean_minus = float(np.mean([np.median(r.output[:, a]) for r in minus]))
+            if mean_plus <= mean_minus:
+                names = ", ".join(f"{r.label} ({r.orientation})" for r in plus + minus)
+                raise SessionFormatError(
+                    f"{self.path or 'session'}: the {axis} output is lower with {axis} up "
+                    f"({mean_plus:.6g}) than with {axis} down ({mean_minus:.6g}): runs {names} "
+                    "look swapped (their orientation labels do not match the gravity they saw)"
+                )
+
     def file_hashes(self) -> dict[str, str]:
         """SHA-256 of ``session.toml`` and every run file, for provenance."""
         if self.path is None:
