@@ -219,7 +219,7 @@ def assert_lstsq_close(
     ``beta`` means a coefficient of a tiny column is allowed a large absolute
     error, exactly as much as the data determine it.
     """
-    a, b = weighted_system(design, response, weights)
+    a, _b = weighted_system(design, response, weights)
     column_norm = np.linalg.norm(a, axis=0)
     d_expected = column_norm * expected.coefficients
     d_actual = column_norm * np.asarray(coefficients, dtype=np.float64)

@@ -9,6 +9,7 @@ example (the seed is part of it).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -49,7 +50,7 @@ def chunk_bounds(draw: st.DrawFn, n: int, max_cuts: int = 8) -> list[int]:
 
 def chunks(bounds: list[int], *arrays: FloatArray) -> Iterator[tuple[FloatArray, ...]]:
     """Slice every array (along axis 0) at ``bounds``."""
-    for start, stop in zip(bounds[:-1], bounds[1:], strict=True):
+    for start, stop in itertools.pairwise(bounds):
         yield tuple(array[start:stop] for array in arrays)
 
 

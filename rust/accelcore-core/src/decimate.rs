@@ -33,7 +33,8 @@
 //!   stream was cut into `push` calls (bit for bit). Pieces of one stream built
 //!   separately can be combined with [`Decimator::merge`] (equal to one pass up
 //!   to the rounding of the sums of a block that straddles the cut). Pieces must
-//!   share `t0`: pass `t0_s` explicitly when splitting a log.
+//!   share `t0` (pass `t0_s` explicitly when splitting a log) and their time
+//!   ranges, over all rows with a finite time, must not overlap.
 //! - **Streaming output.** [`Decimator::drain_completed`] hands out the blocks
 //!   that can no longer change and frees their memory. A drained decimator must
 //!   not be merged with a piece that precedes it in time (this is rejected with
@@ -201,10 +202,8 @@ pub struct Decimator {
     closed: BlockSums,
     /// Block of the latest valid sample; `open.count == 0` means there is none.
     open: OpenBlock,
-    /// Time of the latest row with finite time (for the order check).
-    last_time: Option<f64>,
-    /// Time range of the valid samples (for merge).
-    valid_range: Option<(f64, f64)>,
+    /// First and last time of the rows with finite time (order check, merge).
+    time_range: Option<(f64, f64)>,
     n_samples: u64,
     n_skipped: u64,
     /// Whether `drain_completed` has removed any block.
@@ -234,8 +233,7 @@ impl Decimator {
             config,
             closed: BlockSums::default(),
             open,
-            last_time: None,
-            valid_range: None,
+            time_range: None,
             n_samples: 0,
             n_skipped: 0,
             drained: false,
@@ -266,7 +264,7 @@ impl Decimator {
         }
 
         // Pass 1: check the time order without touching the state.
-        let mut last = self.last_time;
+        let mut last = self.time_range.map(|(_, hi)| hi);
         for (i, &t) in time_s.iter().enumerate() {
             if !t.is_finite() {
                 continue;
@@ -287,7 +285,12 @@ impl Decimator {
         if self.config.t0_s.is_none() {
             self.config.t0_s = time_s.iter().copied().find(|t| t.is_finite());
         }
-        self.last_time = last;
+        if let (Some(first), Some(last)) = (time_s.iter().copied().find(|t| t.is_finite()), last) {
+            self.time_range = Some(match self.time_range {
+                Some((lo, _)) => (lo, last),
+                None => (first, last),
+            });
+        }
         self.n_samples = self.n_samples.saturating_add(n as u64);
         let Some(t0) = self.config.t0_s else {
             // No finite time anywhere so far: every row is invalid.
@@ -297,7 +300,7 @@ impl Decimator {
         // Hot loop, specialised on the channel count so the open block's sums
         // live in a fixed-size array.
         let (t, temp, ch) = (time_s, temperature_c, &channels);
-        let (skipped, first, last_valid) = match self.config.n_channels {
+        let skipped = match self.config.n_channels {
             0 => self.accumulate(t0, [0.0; 0], t, temp, ch),
             1 => self.accumulate(t0, [0.0; 1], t, temp, ch),
             2 => self.accumulate(t0, [0.0; 2], t, temp, ch),
@@ -308,12 +311,6 @@ impl Decimator {
             nc => self.accumulate(t0, vec![0.0; nc], t, temp, ch),
         };
         self.n_skipped = self.n_skipped.saturating_add(skipped);
-        if !last_valid.is_nan() {
-            self.valid_range = Some(match self.valid_range {
-                Some((lo, _)) => (lo, last_valid),
-                None => (first, last_valid),
-            });
-        }
         Ok(())
     }
 
@@ -321,8 +318,9 @@ impl Decimator {
     ///
     /// `factor`, `rate_hz`, `n_channels` and `min_count` must be equal, and so
     /// must `t0` when both pieces know it (bitwise); a piece without `t0` adopts
-    /// the other's. The valid samples of the two pieces must not overlap in
-    /// time (either order is fine). Blocks with the same index are combined.
+    /// the other's. The time ranges of the two pieces (over all rows with a
+    /// finite time) must not overlap; either order is fine. Blocks with the same
+    /// index are combined.
     /// A drained piece cannot be combined with a piece that precedes it in time.
     /// All failures are [`Error::Incompatible`] and leave `self` unchanged.
     pub fn merge(&mut self, other: &Decimator) -> Result<()> {
@@ -361,7 +359,7 @@ impl Decimator {
             (x, y) => x.or(y),
         };
         // `self_first`: whether self's valid samples come before other's.
-        let self_first = match (self.valid_range, other.valid_range) {
+        let self_first = match (self.time_range, other.time_range) {
             (Some((lo_a, hi_a)), Some((lo_b, hi_b))) => {
                 if hi_a < lo_b {
                     true
@@ -380,7 +378,7 @@ impl Decimator {
         } else {
             self.drained
         };
-        if later_drained && self.valid_range.is_some() && other.valid_range.is_some() {
+        if later_drained && self.time_range.is_some() && other.time_range.is_some() {
             return Err(incompatible(
                 "the later piece has been drained; merge pieces before draining".to_string(),
             ));
@@ -460,11 +458,7 @@ impl Decimator {
         self.config.t0_s = t0;
         self.closed = merged;
         self.open = open;
-        self.last_time = match (self.last_time, other.last_time) {
-            (Some(x), Some(y)) => Some(x.max(y)),
-            (x, y) => x.or(y),
-        };
-        self.valid_range = match (self.valid_range, other.valid_range) {
+        self.time_range = match (self.time_range, other.time_range) {
             (Some((la, ha)), Some((lb, hb))) => Some((la.min(lb), ha.max(hb))),
             (x, y) => x.or(y),
         };
@@ -528,8 +522,7 @@ impl Decimator {
     }
 
     /// Accumulate one validated chunk; `sums` is scratch for the open block's
-    /// channel sums (length n_channels). Returns (skipped rows, first and last
-    /// valid time of the chunk, NaN if none).
+    /// channel sums (length n_channels). Returns the number of skipped rows.
     fn accumulate<S: AsRef<[f64]> + AsMut<[f64]>>(
         &mut self,
         t0: f64,
@@ -537,7 +530,7 @@ impl Decimator {
         time_s: &[f64],
         temperature_c: &[f64],
         channels: &ArrayView2<'_, f64>,
-    ) -> (u64, f64, f64) {
+    ) -> u64 {
         for (dst, &v) in sums.as_mut().iter_mut().zip(&self.open.sum_ch) {
             *dst = v;
         }
@@ -561,8 +554,6 @@ impl Decimator {
             sum_temp: open.sum_temp,
             sums,
             n_skipped: 0,
-            first_valid: f64::NAN,
-            last_valid: f64::NAN,
         };
         let closed = &mut self.closed;
         let rows = time_s.iter().zip(temperature_c);
@@ -602,7 +593,7 @@ impl Decimator {
         for (dst, &v) in open.sum_ch.iter_mut().zip(hot.sums.as_ref()) {
             *dst = v;
         }
-        (hot.n_skipped, hot.first_valid, hot.last_valid)
+        hot.n_skipped
     }
 
     fn append_kept(&self, out: &mut DecimatedBlocks, sums: &BlockSums) {
@@ -683,9 +674,6 @@ struct Hot<S> {
     sum_temp: f64,
     sums: S,
     n_skipped: u64,
-    /// NaN until the chunk has a valid row.
-    first_valid: f64,
-    last_valid: f64,
 }
 
 impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
@@ -701,7 +689,6 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
         let (mut count, mut sum_time, mut sum_temp) = (self.count, self.sum_time, self.sum_temp);
         let sums = self.sums.as_mut();
         let mut n_skipped = 0u64;
-        let (mut first_valid, mut last_valid) = (self.first_valid, self.last_valid);
         for (t, temp, row) in rows {
             // `v * 0.0` is ±0 for finite v and NaN otherwise: one branch per row.
             let mut z = t * 0.0 + temp * 0.0;
@@ -712,10 +699,6 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
                 n_skipped += 1;
                 continue;
             }
-            if first_valid.is_nan() {
-                first_valid = t;
-            }
-            last_valid = t;
             let x = (t - t0) * rate_hz / factor;
             // `lo <= x < hi` <=> `x.floor() as i64 == index`: skip the floor.
             if !(x >= lo && x < hi) {
@@ -744,7 +727,6 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
         (self.index, self.lo, self.hi) = (index, lo, hi);
         (self.count, self.sum_time, self.sum_temp) = (count, sum_time, sum_temp);
         self.n_skipped += n_skipped;
-        (self.first_valid, self.last_valid) = (first_valid, last_valid);
     }
 }
 

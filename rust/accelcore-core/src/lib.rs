@@ -18,6 +18,7 @@ pub mod compensate;
 pub mod decimate;
 pub mod error;
 pub mod features;
+pub mod pipeline;
 pub mod reader;
 pub mod regression;
 
@@ -26,5 +27,6 @@ pub use compensate::compensate;
 pub use decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 pub use error::{Error, Result};
 pub use features::first_order_lag;
+pub use pipeline::{FusedPipeline, PipelineConfig, PipelineResult};
 pub use reader::{read_run, read_run_from, ChannelRange, CsvFormat, RunData};
 pub use regression::{LeastSquares, LstsqSolution};

@@ -370,6 +370,26 @@ fn merge_overlapping_ranges_is_incompatible() {
 }
 
 #[test]
+fn merge_overlap_includes_invalid_rows_with_finite_time() {
+    // As in one pass, a row with finite time but a NaN value still orders the stream.
+    let c = DecimatorConfig {
+        t0_s: Some(0.0),
+        ..cfg(10, 20.0, 1)
+    };
+    let mut a = Decimator::new(c.clone()).unwrap();
+    let mut b = Decimator::new(c.clone()).unwrap();
+    push_rows(&mut a, &[vec![0.0, 1.0, 1.0], vec![2.0, f64::NAN, 1.0]]).unwrap();
+    push_rows(&mut b, &[vec![1.0, 1.0, 1.0]]).unwrap();
+    assert!(matches!(a.merge(&b), Err(Error::Incompatible { .. })));
+    // a piece with only invalid rows (finite time) still takes part
+    let mut e = Decimator::new(c).unwrap();
+    push_rows(&mut e, &[vec![1.5, 1.0, f64::NAN]]).unwrap();
+    assert!(matches!(a.merge(&e), Err(Error::Incompatible { .. })));
+    b.merge(&e).unwrap();
+    assert_eq!((b.n_samples(), b.n_skipped_nonfinite()), (2, 1));
+}
+
+#[test]
 fn merge_with_empty() {
     let c = DecimatorConfig {
         t0_s: Some(0.0),

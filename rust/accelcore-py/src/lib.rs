@@ -7,6 +7,7 @@ mod compensation;
 mod decimate;
 mod errors;
 mod gateway;
+mod pipeline;
 mod reader;
 mod regression;
 
@@ -21,6 +22,8 @@ mod _accelcore {
     use super::compensation::{py_compensate, py_first_order_lag};
     #[pymodule_export]
     use super::decimate::{PyDecimatedBlocks, PyDecimator};
+    #[pymodule_export]
+    use super::pipeline::{PyFusedPipeline, PyPipelineResult};
     #[pymodule_export]
     use super::reader::{py_read_run, PyRunData};
     #[pymodule_export]

@@ -1,0 +1,480 @@
+"""Bulk processing of archived chamber runs: every session under a folder, in parallel.
+
+:func:`bulk` finds every session folder (one holding ``session.toml``) at any
+depth under an archive, calibrates and diagnoses each, and writes per session
+``OUT/<relative path>/calibration.json`` and ``diagnosis.json``, plus the fleet
+table ``OUT/fleet.parquet`` and ``OUT/fleet.csv`` (one row per session and axis)
+and ``OUT/failures.csv`` (session, stage, reason).
+
+Guarantees
+----------
+- One bad session never stops the batch: it lands in ``failures.csv``.
+- Nothing is lost on a crash: every file is written to a temporary name and
+  renamed; a session's ``fleet_rows.json`` is written last and marks it done. A
+  rerun skips sessions whose outputs are newer than their inputs and redoes the
+  rest, so ``kill -9`` then a rerun ends with the same fleet table.
+- Results are deterministic: sessions are processed independently and the
+  tables are sorted by session path, so ``--jobs`` does not change a byte.
+
+Parallelism: sessions run in worker *processes* (``concurrent.futures``); the
+Rust reader releases the GIL, but calibration and diagnosis spend much of their
+time in NumPy and Python, so threads would serialise (see the README for the
+measurement). With a Dask ``client`` the same function runs on a cluster,
+sessions as tasks.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import sys
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+import pandas as pd
+
+from accelcore._accelcore import __version__
+from accelcore.errors import AccelcoreError
+
+__all__ = ["BULK_SCHEMA", "BulkResult", "bulk", "find_sessions", "process_session"]
+
+BULK_SCHEMA = "accelcore-bulk/1"
+FLEET_COLUMNS = (
+    "session",
+    "serial",
+    "sensor",
+    "units",
+    "axis",
+    "zero_g_offset",
+    "zero_g_offset_se",
+    "sensitivity",
+    "sensitivity_se",
+    "offset_tc_mg_per_c",
+    "offset_tc_mg_per_c_se",
+    "sensitivity_tc_pct_per_c",
+    "sensitivity_tc_pct_per_c_se",
+    "zero_g_offset_in_spec",
+    "sensitivity_in_spec",
+    "offset_tc_in_spec",
+    "sensitivity_tc_in_spec",
+    "not_identified",
+    "effects",
+    "heldout_rms_mg_before",
+    "heldout_rms_mg_after",
+)
+FAILURE_COLUMNS = ("session", "stage", "reason")
+
+
+def find_sessions(archive: str | Path) -> list[str]:
+    """Return every session folder under ``archive`` (any depth), relative and sorted."""
+    root = Path(archive)
+    if not root.is_dir():
+        raise FileNotFoundError(f"{root}: no such archive folder")
+    found = sorted(
+        p.parent.relative_to(root).as_posix() for p in root.rglob("session.toml") if p.is_file()
+    )
+    return found
+
+
+def _atomic_write_bytes(path: Path, data: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def _atomic_write_text(path: Path, text: str) -> None:
+    _atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def _input_mtime(session_dir: Path) -> float:
+    """Newest modification time of session.toml and every file it names."""
+    import tomllib
+
+    newest = (session_dir / "session.toml").stat().st_mtime
+    try:
+        meta = tomllib.loads((session_dir / "session.toml").read_text())
+        for run in meta.get("run", []):
+            f = session_dir / str(run.get("file", ""))
+            if f.is_file():
+                newest = max(newest, f.stat().st_mtime)
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError, OSError):
+        pass
+    return newest
+
+
+@dataclass
+class SessionOutcome:
+    """What processing one session gave: fleet rows, or a failure, and whether it was reused."""
+
+    session: str
+    rows: list[dict[str, Any]] = field(default_factory=list)
+    failure: tuple[str, str] | None = None
+    reused: bool = False
+
+
+def _fleet_rows(rel: str, cal: Any, diag: Any) -> list[dict[str, Any]]:
+    from accelcore import datasheets
+
+    sheet = None
+    if cal.sensor:
+        try:
+            sheet = datasheets.load(cal.sensor)
+        except (KeyError, ValueError):
+            sheet = None
+    effects = ""
+    before = after = math.nan
+    if diag is not None:
+        summary = diag.summary_figures()
+        effects = ";".join(summary["effects"])
+        before, after = summary["heldout_rms_mg_before"], summary["heldout_rms_mg_after"]
+    rows = []
+    for axis in cal.axes:
+        s = cal.axis(axis)
+
+        def spec(parameter: str, value: float, axis: str = axis) -> bool | None:
+            if sheet is None or math.isnan(value):
+                return None
+            ok = sheet.in_spec(parameter, axis, value)
+            return None if ok is None else bool(ok)
+
+        not_identified = [n for n in cal.not_identified if n.startswith(f"{axis}:")]
+        rows.append(
+            {
+                "session": rel,
+                "serial": cal.serial or "",
+                "sensor": cal.sensor or "",
+                "units": cal.units,
+                "axis": axis,
+                "zero_g_offset": s.zero_g_offset,
+                "zero_g_offset_se": s.zero_g_offset_se,
+                "sensitivity": s.sensitivity,
+                "sensitivity_se": s.sensitivity_se,
+                "offset_tc_mg_per_c": s.offset_tc_mg_per_c,
+                "offset_tc_mg_per_c_se": s.offset_tc_mg_per_c_se,
+                "sensitivity_tc_pct_per_c": s.sensitivity_tc_pct_per_c,
+                "sensitivity_tc_pct_per_c_se": s.sensitivity_tc_pct_per_c_se,
+                "zero_g_offset_in_spec": spec("zero_g_offset", s.zero_g_offset),
+                "sensitivity_in_spec": spec("sensitivity", s.sensitivity),
+                "offset_tc_in_spec": spec("offset_tc_mg_per_c", s.offset_tc_mg_per_c),
+                "sensitivity_tc_in_spec": spec(
+                    "sensitivity_tc_pct_per_c", s.sensitivity_tc_pct_per_c
+                ),
+                "not_identified": ";".join(not_identified),
+                "effects": effects,
+                "heldout_rms_mg_before": before,
+                "heldout_rms_mg_after": after,
+            }
+        )
+    return rows
+
+
+def process_session(
+    archive: str | Path, rel: str, out: str | Path, *, diagnose: bool = True, force: bool = False
+) -> SessionOutcome:
+    """Calibrate (and diagnose) one session and write its outputs; never raises on bad data.
+
+    Parameters
+    ----------
+    archive : str or Path
+        The archive root.
+    rel : str
+        The session folder relative to ``archive``.
+    out : str or Path
+        The output root.
+    diagnose : bool, default True
+        Also run :func:`accelcore.diagnose` and write ``diagnosis.json``.
+    force : bool, default False
+        Redo the session even if its outputs are up to date.
+
+    Returns
+    -------
+    SessionOutcome
+    """
+    import accelcore
+
+    src = Path(archive) / rel
+    dst = Path(out) / rel
+    marker = dst / "fleet_rows.json"
+    try:
+        if not force and marker.is_file() and marker.stat().st_mtime >= _input_mtime(src):
+            doc = json.loads(marker.read_text())
+            if doc.get("schema") == BULK_SCHEMA and doc.get("accelcore_version") == __version__:
+                return SessionOutcome(rel, rows=list(doc["rows"]), reused=True)
+    except (OSError, json.JSONDecodeError, KeyError):
+        pass  # unreadable marker: redo the session
+    stage = "load"
+    try:
+        session = accelcore.load_session(src)
+        stage = "calibrate"
+        cal = accelcore.calibrate(session)
+        dst.mkdir(parents=True, exist_ok=True)
+        cal.save(dst / "calibration.json")
+        diag = None
+        if diagnose:
+            stage = "diagnose"
+            from accelcore.diagnosis import diagnose as run_diagnosis
+
+            diag = run_diagnosis(session, cal)
+            _atomic_write_text(
+                dst / "diagnosis.json", json.dumps(diag.to_dict(), indent=1, sort_keys=True)
+            )
+        stage = "report"
+        rows = _fleet_rows(rel, cal, diag)
+        _atomic_write_text(
+            marker,
+            json.dumps(
+                {"schema": BULK_SCHEMA, "accelcore_version": __version__, "rows": rows},
+                sort_keys=True,
+                allow_nan=True,
+            ),
+        )
+        return SessionOutcome(rel, rows=rows)
+    except (AccelcoreError, OSError, ValueError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        return SessionOutcome(rel, failure=(stage, f"{type(exc).__name__}: {reason}"))
+    except Exception as exc:
+        last = traceback.extract_tb(exc.__traceback__)[-1]
+        return SessionOutcome(
+            rel,
+            failure=(
+                stage,
+                f"internal error {type(exc).__name__}: {exc} "
+                f"(at {Path(last.filename).name}:{last.lineno})",
+            ),
+        )
+
+
+@dataclass(frozen=True)
+class BulkResult:
+    """Summary of a bulk run.
+
+    Attributes
+    ----------
+    fleet : pandas.DataFrame
+        One row per session and axis (also written to fleet.csv / fleet.parquet).
+    failures : pandas.DataFrame
+        One row per failed session: session, stage, reason.
+    n_sessions, n_reused : int
+        Sessions found, and sessions whose up-to-date outputs were reused.
+    elapsed_s : float
+    """
+
+    fleet: pd.DataFrame
+    failures: pd.DataFrame
+    n_sessions: int
+    n_reused: int
+    elapsed_s: float
+
+    @property
+    def ok(self) -> bool:
+        """True when no session failed."""
+        return self.failures.empty
+
+
+class _Progress:
+    """A progress bar on a terminal, plain log lines otherwise."""
+
+    def __init__(self, total: int, stream: TextIO | None, enabled: bool) -> None:
+        self.total, self.done, self.start = total, 0, time.monotonic()
+        self.stream = stream or sys.stderr
+        self.enabled = enabled
+        self.tty = enabled and self.stream.isatty()
+        self._last_line = 0.0
+
+    def update(self, outcome: SessionOutcome) -> None:
+        self.done += 1
+        if not self.enabled:
+            return
+        elapsed = time.monotonic() - self.start
+        rate = self.done / elapsed if elapsed > 0 else 0.0
+        left = (self.total - self.done) / rate if rate > 0 else math.nan
+        status = "FAILED" if outcome.failure else ("reused" if outcome.reused else "ok")
+        if self.tty:
+            width = 30
+            filled = int(width * self.done / max(self.total, 1))
+            self.stream.write(
+                f"\r[{'#' * filled}{'.' * (width - filled)}] {self.done}/"
+                f"{self.total} {rate * 60:.1f}/min, {left:.0f} s left  "
+            )
+            if self.done == self.total:
+                self.stream.write("\n")
+        else:
+            self.stream.write(
+                f"{self.done}/{self.total} {outcome.session}: {status} "
+                f"({rate * 60:.1f}/min, {left:.0f} s left)\n"
+            )
+        self.stream.flush()
+
+
+def _table_bytes(frame: pd.DataFrame, columns: Sequence[str]) -> bytes:
+    buf = io.StringIO()
+    frame.to_csv(
+        buf,
+        index=False,
+        columns=list(columns),
+        lineterminator="\n",
+        quoting=csv.QUOTE_MINIMAL,
+        float_format="%.17g",
+    )
+    return buf.getvalue().encode("utf-8")
+
+
+def _write_tables(out: Path, fleet: pd.DataFrame, failures: pd.DataFrame) -> None:
+    _atomic_write_bytes(out / "fleet.csv", _table_bytes(fleet, FLEET_COLUMNS))
+    _atomic_write_bytes(out / "failures.csv", _table_bytes(failures, FAILURE_COLUMNS))
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError as exc:  # pragma: no cover - pyarrow is a declared dependency of bulk
+        raise ImportError("fleet.parquet needs pyarrow: pip install accelcore[parquet]") from exc
+    table = pa.Table.from_pandas(fleet, preserve_index=False)
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink)
+    _atomic_write_bytes(out / "fleet.parquet", sink.getvalue().to_pybytes())
+
+
+def _run_local(
+    archive: Path,
+    sessions: Sequence[str],
+    out: Path,
+    jobs: int,
+    diagnose: bool,
+    force: bool,
+    on_done: Callable[[SessionOutcome], None],
+) -> list[SessionOutcome]:
+    outcomes: list[SessionOutcome] = []
+    if jobs <= 1:
+        for rel in sessions:
+            o = process_session(archive, rel, out, diagnose=diagnose, force=force)
+            on_done(o)
+            outcomes.append(o)
+        return outcomes
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        futures: list[Future[SessionOutcome]] = [
+            pool.submit(process_session, archive, rel, out, diagnose=diagnose, force=force)
+            for rel in sessions
+        ]
+        for fut in as_completed(futures):
+            o = fut.result()
+            on_done(o)
+            outcomes.append(o)
+    return outcomes
+
+
+def _run_dask(
+    client: Any,
+    archive: Path,
+    sessions: Sequence[str],
+    out: Path,
+    diagnose: bool,
+    force: bool,
+    on_done: Callable[[SessionOutcome], None],
+) -> list[SessionOutcome]:
+    from distributed import as_completed as dask_completed
+
+    futures = [
+        client.submit(
+            process_session,
+            str(archive),
+            rel,
+            str(out),
+            diagnose=diagnose,
+            force=force,
+            pure=False,
+            key=f"accelcore-session-{i}",
+        )
+        for i, rel in enumerate(sessions)
+    ]
+    outcomes = []
+    for fut in dask_completed(futures):
+        o = fut.result()
+        on_done(o)
+        outcomes.append(o)
+    return outcomes
+
+
+def bulk(
+    archive: str | Path,
+    out: str | Path,
+    *,
+    jobs: int | None = None,
+    client: Any = None,
+    scheduler: str | None = None,
+    diagnose: bool = True,
+    force: bool = False,
+    progress: bool = True,
+    stream: TextIO | None = None,
+) -> BulkResult:
+    """Calibrate and diagnose every session under ``archive``; write per-session and fleet outputs.
+
+    Parameters
+    ----------
+    archive : str or Path
+        Folder searched (any depth) for session folders.
+    out : str or Path
+        Output folder (created).
+    jobs : int, optional
+        Worker processes; default: all cores. 1 runs in this process.
+    client : dask.distributed.Client, optional
+        Run sessions as tasks on this Dask cluster instead.
+    scheduler : str, optional
+        Address ``tcp://HOST:PORT`` of a Dask scheduler to connect to.
+    diagnose : bool, default True
+        Also diagnose each session.
+    force : bool, default False
+        Redo sessions whose outputs are up to date.
+    progress : bool, default True
+        Show progress on ``stream`` (a bar on a terminal, log lines otherwise).
+    stream : text stream, optional
+        Where progress goes; default stderr.
+
+    Returns
+    -------
+    BulkResult
+    """
+    start = time.monotonic()
+    archive_p, out_p = Path(archive), Path(out)
+    sessions = find_sessions(archive_p)
+    out_p.mkdir(parents=True, exist_ok=True)
+    bar = _Progress(len(sessions), stream, progress)
+    own_client = None
+    if scheduler is not None and client is None:
+        from distributed import Client
+
+        client = own_client = Client(scheduler)
+    try:
+        if client is not None:
+            outcomes = _run_dask(client, archive_p, sessions, out_p, diagnose, force, bar.update)
+        else:
+            n_jobs = jobs if jobs is not None else (os.cpu_count() or 1)
+            outcomes = _run_local(archive_p, sessions, out_p, n_jobs, diagnose, force, bar.update)
+    finally:
+        if own_client is not None:
+            own_client.close()
+    outcomes.sort(key=lambda o: o.session)
+    rows = [r for o in outcomes for r in o.rows]
+    fleet = pd.DataFrame(rows, columns=list(FLEET_COLUMNS))
+    failures = pd.DataFrame(
+        [
+            {"session": o.session, "stage": o.failure[0], "reason": o.failure[1]}
+            for o in outcomes
+            if o.failure
+        ],
+        columns=list(FAILURE_COLUMNS),
+    )
+    _write_tables(out_p, fleet, failures)
+    return BulkResult(
+        fleet, failures, len(sessions), sum(o.reused for o in outcomes), time.monotonic() - start
+    )

@@ -1,0 +1,98 @@
+//! Throughput of the fused pipeline and of each kernel on one core, in samples/s.
+//!
+//! Plain timing (no criterion, so the workspace builds quickly): `cargo bench
+//! -p accelcore-core --bench pipeline -- --nocapture` prints one line per
+//! kernel (median of 5 runs over 1e7 samples of time, temperature and 3 channels).
+#![allow(clippy::print_stderr)]
+use accelcore_core::{
+    BinnerConfig, Decimator, DecimatorConfig, FusedPipeline, LeastSquares, PipelineConfig,
+    TemperatureBinner,
+};
+use ndarray::{Array2, Axis, Slice};
+use std::hint::black_box;
+use std::time::Instant;
+
+const N: usize = 10_000_000;
+
+fn data() -> (Vec<f64>, Vec<f64>, Array2<f64>) {
+    let t: Vec<f64> = (0..N).map(|i| i as f64 / 20.0).collect();
+    let temp: Vec<f64> = (0..N).map(|i| -20.0 + 80.0 * i as f64 / N as f64).collect();
+    let ch = Array2::from_shape_fn((N, 3), |(i, j)| ((i * 7 + j * 13) % 101) as f64 * 1e-3);
+    (t, temp, ch)
+}
+
+fn median_rate(mut run: impl FnMut()) -> f64 {
+    let mut times: Vec<f64> = (0..5)
+        .map(|_| {
+            let start = Instant::now();
+            run();
+            start.elapsed().as_secs_f64()
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    N as f64 / times[2]
+}
+
+#[test]
+fn throughput() {
+    let (t, temp, ch) = data();
+    let binner = BinnerConfig {
+        lo_c: -40.0,
+        hi_c: 85.0,
+        ..BinnerConfig::default()
+    };
+    // ACCELCORE_BENCH=fused (a comma-separated list) runs only those kernels, e.g. under perf.
+    let only = std::env::var("ACCELCORE_BENCH").unwrap_or_default();
+    let want = |name: &str| only.is_empty() || only.split(',').any(|w| w == name);
+    let report = |name: &str, rate: f64| eprintln!("{name:<10} {:8.1} M samples/s", rate / 1e6);
+    if want("decimate") {
+        report(
+            "decimate",
+            median_rate(|| {
+                let mut d = Decimator::new(DecimatorConfig::default()).unwrap();
+                for start in (0..N).step_by(8192) {
+                    let end = (start + 8192).min(N);
+                    let view = ch.slice_axis(Axis(0), Slice::from(start..end));
+                    d.push(&t[start..end], &temp[start..end], view).unwrap();
+                    black_box(d.drain_completed());
+                }
+            }),
+        );
+    }
+    if want("bin") {
+        report(
+            "bin",
+            median_rate(|| {
+                let mut b = TemperatureBinner::new(binner.clone()).unwrap();
+                b.push(&t, &temp, ch.view()).unwrap();
+                black_box(b.finish().unwrap());
+            }),
+        );
+    }
+    let design = Array2::from_shape_fn((N, 2), |(i, j)| if j == 0 { 1.0 } else { temp[i] });
+    let y = ch.column(0).to_vec();
+    if want("lstsq") {
+        report(
+            "lstsq",
+            median_rate(|| {
+                let mut ls = LeastSquares::new(2, None).unwrap();
+                ls.push(design.view(), &y, None).unwrap();
+                black_box(ls.finish().unwrap());
+            }),
+        );
+    }
+    let config = PipelineConfig {
+        binner,
+        ..PipelineConfig::default()
+    };
+    if want("fused") {
+        report(
+            "fused",
+            median_rate(|| {
+                let mut p = FusedPipeline::new(config.clone()).unwrap();
+                p.push(&t, &temp, ch.view()).unwrap();
+                black_box(p.finish().unwrap());
+            }),
+        );
+    }
+}
