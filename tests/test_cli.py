@@ -13,7 +13,7 @@ import sys
 import types
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 import pandas as pd
@@ -23,7 +23,13 @@ import accelcore
 from accelcore import cli, simulate
 from accelcore.model import Term, base_terms
 
-SHORT = {"duration_h": 0.2, "soak_min": 1.0}  # 14400 rows per run at 20 Hz
+
+class Short(TypedDict):
+    duration_h: float
+    soak_min: float
+
+
+SHORT: Short = {"duration_h": 0.2, "soak_min": 1.0}  # 14400 rows per run at 20 Hz
 HAVE_DIAGNOSIS = importlib.util.find_spec("accelcore.diagnosis") is not None
 
 
@@ -75,9 +81,7 @@ def cal_file(sim: simulate.SimulatedSession, tmp_path_factory: pytest.TempPathFa
 
 
 # ---------------------------------------------------------------------- help and usage
-@pytest.mark.parametrize(
-    "command", ["calibrate", "compensate", "diagnose", "simulate", "demo"]
-)
+@pytest.mark.parametrize("command", ["calibrate", "compensate", "diagnose", "simulate", "demo"])
 def test_help_of_each_command_shows_an_example(
     command: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -139,7 +143,7 @@ def test_calibrate_prints_summary_and_datasheet_tables(sim: simulate.SimulatedSe
 def test_calibrate_json_schema(sim: simulate.SimulatedSession, tmp_path: Path) -> None:
     target = tmp_path / "result.json"
     saved = tmp_path / "cal.json"
-    status, out, err = run_main(
+    status, _, err = run_main(
         "calibrate", sim.path, "--method", "paper", "--t-ref", "20", "--window", "5", "55",
         "--json", target, "--save", saved,
     )  # fmt: skip
@@ -385,8 +389,8 @@ def test_simulate_writes_a_session(tmp_path: Path) -> None:
     folder = tmp_path / "s"
     target = tmp_path / "sim.json"
     status, out, err = run_main(
-        "simulate", folder, "--sensor", "mpu9255", "--seed", "4", "--duration-h", "0.05", "--soak-min", "1",
-        "--orientations", "OZ+", "OZ-", "--serial", "M-2", "--json", target,
+        "simulate", folder, "--sensor", "mpu9255", "--seed", "4", "--duration-h", "0.05",
+        "--soak-min", "1", "--orientations", "OZ+", "OZ-", "--serial", "M-2", "--json", target,
     )  # fmt: skip
     assert status == 0, err
     assert "wrote" in out and "MPU-9255" in out
@@ -421,6 +425,53 @@ def test_diagnose_without_the_module_exits_2(
     monkeypatch.setitem(sys.modules, "accelcore.diagnosis", None)
     status, _, err = run_main("diagnose", sim.path)
     assert status == 2 and "diagnosis is not available" in err
+
+
+class _FakeDiagnosis:
+    """Stands in for accelcore.diagnosis.Diagnosis to test the command's plumbing."""
+
+    def __init__(self, session: accelcore.Session, calibration: object) -> None:
+        self.session, self.calibration = session, calibration
+
+    def text(self) -> str:
+        return f"fake diagnosis of {len(self.session.runs)} runs"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"effects": ["curvature"], "rms_mg": [float("nan"), 0.5]}
+
+
+def _fake_diagnosis_module(calls: list[object]) -> types.ModuleType:
+    def diagnose(session: accelcore.Session, calibration: object = None) -> _FakeDiagnosis:
+        calls.append(calibration)
+        return _FakeDiagnosis(session, calibration)
+
+    module = types.ModuleType("accelcore.diagnosis")
+    module.diagnose = diagnose  # type: ignore[attr-defined]
+    return module
+
+
+def test_diagnose_plumbing_with_a_stand_in_module(
+    sim: simulate.SimulatedSession, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    calls: list[object] = []
+    fake = _fake_diagnosis_module(calls)
+    monkeypatch.setitem(sys.modules, "accelcore.diagnosis", fake)
+    monkeypatch.setattr(accelcore, "diagnosis", fake, raising=False)
+    target = tmp_path / "d.json"
+    status, out, err = run_main("diagnose", sim.path, "--json", target)
+    assert status == 0, err
+    assert out.strip() == "fake diagnosis of 6 runs"
+    doc = strict_json(target)
+    assert doc["command"] == "diagnose"
+    assert doc["result"] == {
+        "session": str(sim.path),
+        "diagnosis": {"effects": ["curvature"], "rms_mg": [None, 0.5]},
+    }
+    # The demo ends with the diagnosis table, reusing its joint calibration.
+    status, out, err = run_main("demo", "--dir", tmp_path / "demo")
+    assert status == 0, err
+    assert out.rstrip().endswith("fake diagnosis of 6 runs")
+    assert isinstance(calls[-1], accelcore.Calibration) and calls[-1].method == "joint"
 
 
 def test_bench_forwards_its_arguments(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -480,6 +531,17 @@ def test_demo_generates_once_and_prints_the_tables(tmp_path: Path) -> None:
     assert run_main("demo", "--dir", folder, "--regenerate")[0] == 0
     assert (folder / "z_pos.csv").read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["demo"]
+
+
+def test_demo_default_folder() -> None:
+    from accelcore import demo
+
+    root = Path(demo.__file__).resolve().parents[2]
+    folder = demo.default_directory()
+    if (root / "pyproject.toml").is_file() and os.access(root, os.W_OK):
+        assert folder == root / "examples" / "adxl335-demo" / "generated"
+    else:
+        assert folder.parts[-2:] == ("accelcore", "adxl335-demo")
 
 
 def test_demo_refuses_a_foreign_folder(tmp_path: Path) -> None:

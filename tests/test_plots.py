@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TypedDict
 
 import numpy as np
 import pytest
@@ -16,7 +17,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import accelcore  # noqa: E402
 from accelcore import plots, simulate  # noqa: E402
 
-SHORT = {"duration_h": 0.2, "soak_min": 1.0}
+
+class Short(TypedDict):
+    duration_h: float
+    soak_min: float
+
+
+SHORT: Short = {"duration_h": 0.2, "soak_min": 1.0}
 
 
 @pytest.fixture(scope="module")
@@ -62,8 +69,8 @@ def test_raw_vs_decimated_like_figure_4(
     ]
     raw, decimated, bins, model = ax.get_lines()
     run = next(r for r in session.runs if r.orientation == "OZ+")
-    assert len(raw.get_xdata()) == run.stats.n_rows
-    assert len(decimated.get_xdata()) == len(run)
+    assert np.asarray(raw.get_xdata()).size == run.stats.n_rows
+    assert np.asarray(decimated.get_xdata()).size == len(run)
     # The model line is offset + sensitivity at each temperature: at T_ref, +1 g output.
     t, y = np.asarray(model.get_xdata()), np.asarray(model.get_ydata())
     s = calibration.axis("z")
@@ -78,9 +85,9 @@ def test_raw_vs_decimated_choices(session: accelcore.Session, tmp_path: Path) ->
     save(ax, tmp_path / "fig4b.png")
     assert ax.get_ylabel() == "x output (V)"
     assert labels(ax)[0].startswith("raw (20 Hz, every")
-    assert len(ax.get_lines()[0].get_xdata()) <= 500
+    assert np.asarray(ax.get_lines()[0].get_xdata()).size <= 500
     assert labels(ax)[-1] == "linear fit of bins"
-    fig, own = plt.subplots()
+    _, own = plt.subplots()
     assert plots.plot_raw_vs_decimated(session, 1, "y", ax=own, raw=False) is own
     assert labels(own)[0] == "decimated (2 Hz)" and own.get_ylabel() == "y output (V)"
     with pytest.raises(ValueError, match="no run 'OQ\\+'"):

@@ -378,3 +378,14 @@ def test_custom_names_are_reported() -> None:
     solver = LeastSquares(2, column_names=["offset_lsb", "tempco_lsb_per_c"])
     solver.push(design, rng.normal(size=10))
     assert list(solver.finish().column_names) == ["offset_lsb", "tempco_lsb_per_c"]
+
+
+@pytest.mark.parametrize(
+    ("n_columns", "names"),
+    [(0, None), (65, None), (2, ["a"]), (2, ["a", "b", "c"]), (2, ["a", "a"])],
+)
+def test_invalid_config(n_columns: int, names: list[str] | None) -> None:
+    with pytest.raises(accelcore.ParameterError):
+        LeastSquares(n_columns, column_names=names)
+    with pytest.raises(reference.ParameterError):
+        reference.LeastSquares(n_columns, column_names=names)

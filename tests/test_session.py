@@ -220,7 +220,14 @@ def test_columns_delimiter_and_time_unit_are_honoured(tmp_path: Path) -> None:
 
 
 def test_a_missing_renamed_column_is_named(tmp_path: Path) -> None:
-    mem = simulate.arrays("ADXL327", seed=3, duration_h=0.05, soak_min=1.0, orientations=("OZ+",))
+    mem = simulate.arrays(
+        "ADXL327",
+        seed=3,
+        duration_h=0.05,
+        soak_min=1.0,
+        orientations=("OZ+",),
+        extra_columns=("supply_v",),
+    )
     write_renamed_session(tmp_path / "s", mem)
     toml = tmp_path / "s" / "session.toml"
     toml.write_text(toml.read_text().replace('x = "ax"', 'x = "acc_x"'))
@@ -300,6 +307,3 @@ def test_from_arrays_calibrates_like_the_files(
         bound = bound + 1e-9 * np.abs(coef)
         diff = np.abs(cal_files.axes[axis].coefficients - coef)
         assert np.all(diff <= bound), f"{part} {axis}: {diff} > {bound}"
-        assert np.all(diff <= 0.05 * np.sqrt(np.diag(cal_dicts.axes[axis].covariance))), (
-            "printing moves the fit by far less than its standard error"
-        )

@@ -367,3 +367,116 @@ def first_order_lag(
     ``y[i] = y[i-1] + (1 - exp(-(t[i]-t[i-1])/tau)) (x[i] - y[i-1])``, ``y[0] = initial``
     or ``x[0]``: what a die trailing the logged probe sees. ``tau_s = 0`` returns the input.
     """
+
+@final
+class PipelineResult:
+    """Output of :meth:`FusedPipeline.finish`.
+
+    Attributes
+    ----------
+    binned : BinnedStats
+        Per-temperature-bin statistics of the kept block means (one block = one sample).
+    fits : list of LstsqSolution
+        One line fit per channel, ``channel = offset + slope_per_c · (T − t_ref_c)`` on
+        the block means weighted by block counts; coefficients ``[offset, slope_per_c]``.
+    n_samples, n_skipped_nonfinite : int
+        Raw rows pushed, and rows skipped because a value was NaN or infinite.
+    n_blocks, n_blocks_dropped : int
+        Blocks binned and fitted, and blocks left out with fewer than ``min_count`` samples.
+    """
+
+    @property
+    def binned(self) -> BinnedStats: ...
+    @property
+    def fits(self) -> list[LstsqSolution]: ...
+    @property
+    def n_samples(self) -> int: ...
+    @property
+    def n_skipped_nonfinite(self) -> int: ...
+    @property
+    def n_blocks(self) -> int: ...
+    @property
+    def n_blocks_dropped(self) -> int: ...
+
+@final
+class FusedPipeline:
+    """Decimate → temperature-bin → line-fit in one streaming pass, in bounded memory.
+
+    Equals ``Decimator`` → ``finish`` → ``TemperatureBinner.push(blocks)`` and one
+    ``LeastSquares(2)`` per channel on ``[1, T − t_ref_c]`` weighted by block counts
+    (up to rounding), but keeps only the open block, bins and ``R`` factors.
+
+    Parameters
+    ----------
+    factor, rate_hz, n_channels, min_count, t0_s
+        As for :class:`Decimator`. ``min_count`` drops whole blocks before binning/fitting.
+    lo_c, hi_c, width_c : float
+        As for :class:`TemperatureBinner` (window ``[lo_c, hi_c)``, °C).
+    t_ref_c : float, default 25.0
+        Reference temperature of the line fits, °C.
+
+    Notes
+    -----
+    NaN policy (skip) and time order are the decimator's. To process a log in
+    pieces and :meth:`merge` them, pass the same ``t0_s`` to every piece; a piece
+    boundary may fall inside a block (each piece holds back its first and last block).
+    """
+
+    def __init__(
+        self,
+        *,
+        factor: int = 10,
+        rate_hz: float = 20.0,
+        n_channels: int = 3,
+        min_count: int = 1,
+        t0_s: float | None = None,
+        lo_c: float = 0.0,
+        hi_c: float = 60.0,
+        width_c: float = 0.5,
+        t_ref_c: float = 25.0,
+    ) -> None: ...
+    def push(self, time_s: ArrayLike, temperature_c: ArrayLike, channels: ArrayLike) -> None:
+        """Push ``n`` raw samples: time (s), temperature (°C), channels ``(n, n_channels)``.
+
+        Raises
+        ------
+        accelcore.ShapeError
+            If the lengths differ or ``channels`` has the wrong number of columns.
+        accelcore.TimeOrderError
+            If time does not strictly increase (earlier 8192-row sub-chunks are kept).
+        """
+
+    def merge(self, other: FusedPipeline) -> None:
+        """Merge another piece of the same log (same configuration and ``t0_s``).
+
+        Raises
+        ------
+        accelcore.IncompatibleError
+            If configurations or ``t0_s`` differ, or the pieces overlap in time.
+        """
+
+    def finish(self) -> PipelineResult:
+        """Binned statistics and per-channel line fits so far; the state is kept.
+
+        Raises
+        ------
+        accelcore.InsufficientDataError
+            No block inside the window, or fewer blocks than the fit needs.
+        accelcore.SingularSystemError
+            All kept blocks at one temperature.
+        """
+
+    @property
+    def n_samples(self) -> int:
+        """Rows pushed so far, valid or not."""
+
+    @property
+    def n_skipped_nonfinite(self) -> int:
+        """Rows skipped because a value was NaN or infinite."""
+
+    @property
+    def t0_s(self) -> float | None: ...
+    @property
+    def t_ref_c(self) -> float: ...
+    @property
+    def n_channels(self) -> int: ...

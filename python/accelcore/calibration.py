@@ -413,6 +413,25 @@ class Calibration:
             out += lines
         return "\n".join(out)
 
+    # ------------------------------------------------------------------ plots
+    def plot_raw(self, session: Session, run: int | str | None = None, ax: Any = None) -> Any:
+        """Figure 4 of the paper: one run's raw, decimated and binned output vs temperature."""
+        from accelcore import plots
+
+        return plots.plot_raw_vs_decimated(session, run, ax=ax, calibration=self)
+
+    def plot_sensitivity(self, session: Session, ax: Any = None) -> Any:
+        """Figure 6 of the paper: per-bin (V+ - V-)/2 and this model's sensitivity vs T."""
+        from accelcore import plots
+
+        return plots.plot_sensitivity_vs_temperature(session, self, ax=ax)
+
+    def plot_offset(self, session: Session, ax: Any = None) -> Any:
+        """Figure 7 of the paper: per-bin (V+ + V-)/2 and this model's zero-g offset vs T."""
+        from accelcore import plots
+
+        return plots.plot_offset_vs_temperature(session, self, ax=ax)
+
     # ------------------------------------------------------------------ compensation
     def _coefficient_matrices(
         self,
@@ -485,6 +504,12 @@ class Calibration:
         bases, offset, gain = self._coefficient_matrices()
         basis = np.column_stack([evaluate_basis(b, feats, self.references) for b in bases])
         return _compensate(raw_a, basis, offset, gain)
+
+    def residuals(self, session: Session) -> pd.DataFrame:
+        """Error in mg of every decimated sample, with the observables (:func:`accelcore.diagnosis.residuals`)."""
+        from accelcore.diagnosis import residuals
+
+        return residuals(self, session)
 
     def _warn_range(self, temp: NDArray[np.float64]) -> None:
         finite = temp[np.isfinite(temp)]

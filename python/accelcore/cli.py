@@ -18,6 +18,7 @@ writes it to stdout instead of the human-readable output.
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import math
 import os
@@ -429,7 +430,7 @@ def _cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
     import accelcore
 
     try:
-        from accelcore import diagnosis  # type: ignore[attr-defined,unused-ignore]
+        diagnosis = importlib.import_module("accelcore.diagnosis")
     except ImportError as exc:
         raise _UsageError(f"diagnosis is not available in this installation ({exc})") from exc
     session = accelcore.load_session(args.session)
@@ -502,7 +503,7 @@ def _norm(name: str) -> str:
 
 def _cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
     try:
-        from accelcore import bench  # type: ignore[attr-defined,unused-ignore]
+        bench = importlib.import_module("accelcore.bench")
     except ImportError as exc:
         raise _UsageError(f"the benchmarks are not available in this installation ({exc})") from exc
     return int(bench.main(list(args.bench_args)))
@@ -702,6 +703,11 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None) -> 
         warnings.simplefilter("always")
         try:
             status = handler(ns, out)
+        except BrokenPipeError:  # the reader went away (e.g. `accelcore demo | head`)
+            if out is sys.stdout:
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(devnull, sys.stdout.fileno())
+            status = 1
         except _UsageError as exc:
             print(f"accelcore {ns.command}: error: {exc}", file=sys.stderr)
             status = 2

@@ -8,6 +8,7 @@ result of one pass over ``a``'s input followed by ``b``'s.
 - :class:`Decimator`: time-aligned block means (20 Hz to 2 Hz by default).
 - :class:`TemperatureBinner`: per-temperature-bin count, mean and variance.
 - :class:`LeastSquares`: incremental weighted least squares (Givens QR).
+- :class:`FusedPipeline`: the three fused, decimate → bin → line fit, in one pass.
 
 All computation runs in Rust with the GIL released. ``accelcore.reference``
 holds an independent NumPy implementation of the same specification.
@@ -19,8 +20,10 @@ from accelcore._accelcore import (
     BinnedStats,
     DecimatedBlocks,
     Decimator,
+    FusedPipeline,
     LeastSquares,
     LstsqSolution,
+    PipelineResult,
     TemperatureBinner,
 )
 
@@ -28,7 +31,9 @@ __all__ = [
     "BinnedStats",
     "DecimatedBlocks",
     "Decimator",
+    "FusedPipeline",
     "LeastSquares",
     "LstsqSolution",
+    "PipelineResult",
     "TemperatureBinner",
 ]

@@ -12,6 +12,7 @@ coefficients and, when :mod:`accelcore.diagnosis` is available, the diagnosis.
 
 from __future__ import annotations
 
+import importlib
 import json
 import math
 import os
@@ -48,8 +49,10 @@ def default_directory() -> Path:
         (``~/.cache`` when unset).
     """
     root = Path(__file__).resolve().parents[2]
+    in_checkout = (root / "pyproject.toml").is_file() and (root / "python" / "accelcore").is_dir()
     examples = root / "examples"
-    if (root / "pyproject.toml").is_file() and examples.is_dir() and os.access(examples, os.W_OK):
+    writable = os.access(examples if examples.is_dir() else root, os.W_OK)
+    if in_checkout and writable:
         return examples / "adxl335-demo" / "generated"
     cache = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     return Path(cache) / "accelcore" / "adxl335-demo"
@@ -180,12 +183,16 @@ def run(
     folder, took = ensure_session(directory, regenerate=regenerate)
     p = DEMO_PARAMETERS
     how = "reused" if took is None else f"generated in {took:.1f} s"
+    try:
+        shown = folder.resolve().relative_to(Path.cwd().resolve())
+    except ValueError:
+        shown = folder
     print(
         f"accelcore {accelcore.__version__} demo: thermal calibration of a simulated {p['sensor']}",
         file=stream,
     )
     print(
-        f"session {folder} ({how}; seed {p['seed']}, {len(p['orientations'])} orientations, "
+        f"session {shown} ({how}; seed {p['seed']}, {len(p['orientations'])} orientations, "
         f"{p['duration_h']:g} h sweeps -2→65 °C at 20 Hz, the paper's measured part as truth)",
         file=stream,
     )
@@ -197,7 +204,7 @@ def run(
     print(f"\n{text}", file=stream)
     print(f"\n{_tc_table(joint, paper, _truth(folder))}", file=stream)
     try:
-        from accelcore import diagnosis  # type: ignore[attr-defined,unused-ignore]
+        diagnosis = importlib.import_module("accelcore.diagnosis")
     except ImportError:
         print("\n(diagnosis not available in this installation)", file=stream)
         return 0

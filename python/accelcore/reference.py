@@ -8,10 +8,11 @@ it can be read, run and trusted on its own.
 Every kernel has the same API as its Rust twin: a keyword-configured class with
 ``push`` (a chunk of samples), ``merge`` (another accumulator of the same
 configuration) and ``finish`` (the result; it does not alter the state).
-Chunks are validated in ``push`` and kept; the arithmetic happens in
-``finish`` (except :class:`LeastSquares`, which reduces each chunk to a small
-triangular factor as it arrives, so that its memory does not grow with the
-number of rows).
+Chunks are validated in ``push``. :class:`TemperatureBinner` keeps the rows and
+does all its arithmetic in ``finish`` (a two-pass variance); :class:`Decimator`
+reduces each chunk to per-block sums and :class:`LeastSquares` each chunk to a
+small triangular factor as they arrive, so that their memory does not grow
+with the number of rows.
 
 The reference raises its own exception classes, which carry the same names as
 the ones in :mod:`accelcore` (``ParameterError``, ``ShapeError``, ...) and
@@ -263,9 +264,11 @@ class Decimator:
         self._last_time: float | None = None  # last finite time pushed
         self._n_samples = 0
         self._n_skipped = 0
-        self._time: list[FloatArray] = []  # valid rows only
-        self._temperature: list[FloatArray] = []
-        self._channels: list[FloatArray] = []
+        # Per pushed chunk, its blocks: index, count, and sums of time,
+        # temperature and channels (columns of one array, in that order).
+        self._block_index: list[IntArray] = []
+        self._count: list[IntArray] = []
+        self._sums: list[FloatArray] = []
 
     @property
     def t0_s(self) -> float | None:
@@ -288,7 +291,7 @@ class Decimator:
         temperature_c: ArrayLike,
         channels: ArrayLike,
     ) -> None:
-        """Append a chunk of rows.
+        """Append a chunk of rows (reduced at once to per-block sums).
 
         Parameters
         ----------
@@ -340,9 +343,24 @@ class Decimator:
                 self._t0 = float(finite_t[0])
         self._n_samples += n
         self._n_skipped += int(n - np.count_nonzero(valid))
-        self._time.append(t[valid])
-        self._temperature.append(temperature[valid])
-        self._channels.append(ch[valid])
+        if self._t0 is None or not valid.any():
+            return
+        if not valid.all():
+            t, temperature, ch = t[valid], temperature[valid], ch[valid]
+        # Time increases, so block indices are sorted and each block is one run.
+        k = np.floor((t - self._t0) * self.rate_hz / self.factor).astype(np.int64)
+        starts = np.flatnonzero(np.concatenate(([True], k[1:] != k[:-1])))
+        self._block_index.append(k[starts])
+        self._count.append(np.diff(np.append(starts, k.size)).astype(np.int64))
+        self._sums.append(
+            np.column_stack(
+                (
+                    np.add.reduceat(t, starts),
+                    np.add.reduceat(temperature, starts),
+                    np.add.reduceat(ch, starts, axis=0) if self.n_channels else ch[starts],
+                )
+            )
+        )
 
     def merge(self, other: Decimator) -> None:
         """Absorb another decimator that holds a different piece of the same stream.
@@ -385,9 +403,9 @@ class Decimator:
                 self._last_time = other._last_time
         self._n_samples += other._n_samples
         self._n_skipped += other._n_skipped
-        self._time.extend(other._time)
-        self._temperature.extend(other._temperature)
-        self._channels.extend(other._channels)
+        self._block_index.extend(other._block_index)
+        self._count.extend(other._count)
+        self._sums.extend(other._sums)
 
     def finish(self) -> DecimatedBlocks:
         """Return the means of all blocks with at least ``min_count`` valid rows.
@@ -402,33 +420,30 @@ class Decimator:
         InsufficientDataError
             If no block has ``min_count`` valid rows (including no data at all).
         """
-        t = _concat(self._time)
-        if t.size == 0 or self._t0 is None:
+        if not self._block_index:
             raise InsufficientDataError("no valid sample pushed")
-        # Pieces merged out of order are put back in time (= row) order.
-        order = np.argsort(t, kind="stable")
-        t = t[order]
-        temperature = _concat(self._temperature)[order]
-        ch = _concat(self._channels, self.n_channels)[order]
-
-        k = np.floor((t - self._t0) * self.rate_hz / self.factor).astype(np.int64)
+        k = np.concatenate(self._block_index)
+        count = np.concatenate(self._count)
+        sums = np.concatenate(self._sums, axis=0)
+        # A block cut by a chunk boundary (or split between merged pieces)
+        # appears once per chunk: bring its parts together and add them up.
+        order = np.argsort(k, kind="stable")
+        k, count, sums = k[order], count[order], sums[order]
         starts = np.flatnonzero(np.concatenate(([True], k[1:] != k[:-1])))
-        count = np.diff(np.append(starts, k.size)).astype(np.int64)
+        k = k[starts]
+        count = np.add.reduceat(count, starts)
+        sums = np.add.reduceat(sums, starts, axis=0)
+
         keep = count >= self.min_count
         if not keep.any():
             raise InsufficientDataError(f"no block has min_count={self.min_count} valid samples")
-
-        def block_means(values: FloatArray) -> FloatArray:
-            sums: FloatArray = np.add.reduceat(values, starts, axis=0)
-            n = count.astype(np.float64)
-            return sums / (n if values.ndim == 1 else n[:, None])
-
+        means = sums[keep] / count[keep, None].astype(np.float64)
         return DecimatedBlocks(
-            block_index=k[starts][keep],
+            block_index=k[keep],
             count=count[keep],
-            time_s=block_means(t)[keep],
-            temperature_c=block_means(temperature)[keep],
-            channels=block_means(ch)[keep] if self.n_channels else np.empty((int(keep.sum()), 0)),
+            time_s=means[:, 0],
+            temperature_c=means[:, 1],
+            channels=means[:, 2:],
         )
 
 
@@ -714,7 +729,7 @@ class LeastSquares:
     Raises
     ------
     ParameterError
-        If ``n_columns`` is out of range or the names do not match it.
+        If ``n_columns`` is out of range, or the names do not match it or repeat.
 
     Notes
     -----
@@ -732,6 +747,8 @@ class LeastSquares:
         names = [f"x{j}" for j in range(n_columns)] if column_names is None else list(column_names)
         if len(names) != n_columns:
             raise ParameterError(f"{len(names)} column names for {n_columns} columns")
+        if len(set(names)) != len(names):
+            raise ParameterError(f"column names must be unique, got {names}")
         self.n_columns = int(n_columns)
         self.column_names = names
         self._n_rows = 0

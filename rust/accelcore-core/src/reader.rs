@@ -126,6 +126,42 @@ pub struct RunData {
 }
 
 const BATCH_ROWS: usize = 8192;
+/// Values (rows x channels) per batch: a wide header gets fewer rows per batch,
+/// so the batch stays about 0.5 MB whatever the column count.
+const BATCH_VALUES: usize = BATCH_ROWS * 8;
+/// Longest accepted line, bytes. A longer one (a binary file, or a log without
+/// line ends) is an error instead of being buffered whole.
+pub const MAX_LINE_BYTES: usize = 1 << 20;
+/// Header names shown in a "missing column" message.
+const MAX_NAMES_SHOWN: usize = 32;
+
+/// Read one line (with its `\n`, if any) into `line`; `Ok(0)` at the end of input.
+/// `line_no` is the number of the line being read, for the error message.
+fn read_line<R: BufRead>(
+    reader: &mut R,
+    line: &mut Vec<u8>,
+    path: &str,
+    line_no: u64,
+) -> Result<usize> {
+    line.clear();
+    let n = reader
+        .by_ref()
+        .take(MAX_LINE_BYTES as u64 + 1)
+        .read_until(b'\n', line)
+        .map_err(|e| io_error(path, &e))?;
+    if n > MAX_LINE_BYTES && line.last() != Some(&b'\n') {
+        return Err(parse_error(
+            path,
+            line_no,
+            1,
+            format!(
+                "line longer than {MAX_LINE_BYTES} bytes: not a delimited text log \
+                 (binary data, or missing line ends?)"
+            ),
+        ));
+    }
+    Ok(n)
+}
 
 fn io_error(path: &str, err: &std::io::Error) -> Error {
     Error::Io {
@@ -193,10 +229,14 @@ fn map_columns(path: &str, header: &[String], format: &CsvFormat) -> Result<Colu
                 .join(", "),
             header
                 .iter()
+                .take(MAX_NAMES_SHOWN)
                 .map(|m| format!("'{m}'"))
                 .collect::<Vec<_>>()
                 .join(", ")
         );
+        if header.len() > MAX_NAMES_SHOWN {
+            reason.push_str(&format!(", ... ({} in all)", header.len()));
+        }
         if header.len() == 1 {
             for (d, name) in [(b',', "','"), (b'\t', "tab"), (b';', "';'")] {
                 if d != format.delimiter && header[0].as_bytes().contains(&d) {
@@ -229,6 +269,8 @@ fn map_columns(path: &str, header: &[String], format: &CsvFormat) -> Result<Colu
 
 /// Column-major batch of parsed rows waiting to be pushed.
 struct Batch {
+    /// Rows per batch (see [`BATCH_VALUES`]).
+    rows: usize,
     time_s: Vec<f64>,
     temperature_c: Vec<f64>,
     channels: Vec<f64>,
@@ -237,11 +279,13 @@ struct Batch {
 
 impl Batch {
     fn new(n_channels: usize) -> Self {
+        let rows = (BATCH_VALUES / n_channels.max(1)).clamp(1, BATCH_ROWS);
         Self {
-            time_s: Vec::with_capacity(BATCH_ROWS),
-            temperature_c: Vec::with_capacity(BATCH_ROWS),
-            channels: Vec::with_capacity(BATCH_ROWS * n_channels),
-            lines: Vec::with_capacity(BATCH_ROWS),
+            rows,
+            time_s: Vec::with_capacity(rows),
+            temperature_c: Vec::with_capacity(rows),
+            channels: Vec::with_capacity(rows * n_channels),
+            lines: Vec::with_capacity(rows),
         }
     }
 
@@ -322,10 +366,7 @@ pub fn read_run_from<R: Read>(
     let mut line_no: u64 = 0;
     // Header: the first non-blank line.
     let header: Vec<String> = loop {
-        line.clear();
-        let n = reader
-            .read_until(b'\n', &mut line)
-            .map_err(|e| io_error(path, &e))?;
+        let n = read_line(&mut reader, &mut line, path, line_no + 1)?;
         if n == 0 {
             return Err(parse_error(
                 path,
@@ -366,10 +407,7 @@ pub fn read_run_from<R: Read>(
     let nominal_period = 1.0 / decimator.config().rate_hz;
     let time_field = columns.time as u64 + 1;
     loop {
-        line.clear();
-        let n = reader
-            .read_until(b'\n', &mut line)
-            .map_err(|e| io_error(path, &e))?;
+        let n = read_line(&mut reader, &mut line, path, line_no + 1)?;
         if n == 0 {
             break;
         }
@@ -437,7 +475,7 @@ pub fn read_run_from<R: Read>(
         }
         batch.lines.push(line_no);
         n_rows += 1;
-        if batch.time_s.len() == BATCH_ROWS {
+        if batch.time_s.len() == batch.rows {
             batch.flush(&mut decimator, n_channels, path, time_field)?;
         }
     }

@@ -1,0 +1,15 @@
+"""A simulated six-run session on disk, written once per benchmark run."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from accelcore import simulate
+
+
+def session_dir(workdir: Path, hours: float) -> Path:
+    """Six runs (OX±, OY±, OZ±) of ``hours`` at 20 Hz each, ADXL335 in volts."""
+    path = workdir / f"session-{hours:g}h"
+    if not (path / "session.toml").is_file():
+        simulate.session(path, duration_h=hours, seed=1, overwrite=True)
+    return path

@@ -1,0 +1,337 @@
+"""Benchmark runner: accelcore vs the NumPy reference, pandas and polars.
+
+``accelcore bench`` (or ``python -m accelcore.bench``) runs the cases in the
+repository's ``benches/`` folder and prints one table per case. Every row of a
+table is measured in the same run on the same data: median of several
+repetitions (wall clock and the thread's CPU time), throughput, peak memory
+and the speed ratio to the case's baseline. Targets are reported, never
+asserted. Results are saved as JSON under ``benches/results/``.
+
+Peak memory is the growth of the process's peak resident set during one
+extra repetition (``/proc/self/clear_refs`` resets the peak, then
+``VmHWM - VmRSS`` is read), so Rust, NumPy and Python allocations all count;
+the memory case measures whole subprocesses instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import gc
+import json
+import os
+import platform
+import socket
+import statistics
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+# polars reads with every core by default; the targets are per core.
+os.environ.setdefault("POLARS_MAX_THREADS", "1")
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@dataclass
+class Row:
+    """One measured line of a table."""
+
+    name: str
+    n: int
+    wall_s: float
+    cpu_s: float
+    unit: str  # "samples" or "MB"
+    amount: float  # samples or MB processed per repetition
+    peak_mb: float | None = None
+    baseline: str | None = None
+    ratio: float | None = None
+    target: str = ""
+    met: str = ""
+    note: str = ""
+
+    @property
+    def rate(self) -> float:
+        """Throughput per wall-clock second (samples/s or MB/s)."""
+        return self.amount / self.wall_s if self.wall_s > 0 else float("nan")
+
+    @property
+    def cpu_rate(self) -> float:
+        """Throughput per second of the thread's CPU time."""
+        return self.amount / self.cpu_s if self.cpu_s > 0 else float("nan")
+
+
+@dataclass
+class Table:
+    """One case: a title, its rows and free-form notes."""
+
+    title: str
+    rows: list[Row] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def set_ratios(self, baseline_of: Callable[[Row], str | None]) -> None:
+        """Fill ``ratio`` = baseline time / row time, baselines named per row."""
+        by_key = {(r.name, r.n): r for r in self.rows}
+        for r in self.rows:
+            base_name = baseline_of(r)
+            base = by_key.get((base_name, r.n)) if base_name else None
+            if base is not None:
+                r.baseline = base_name
+                r.ratio = base.wall_s / r.wall_s
+
+
+@dataclass
+class Context:
+    """Options shared by the cases."""
+
+    large: bool
+    quick: bool
+    workdir: Path
+
+
+def _status_kb(key: str) -> int:
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith(key + ":"):
+                return int(line.split()[1])
+    return 0
+
+
+def reset_peak_rss() -> bool:
+    """Reset VmHWM to the current RSS (Linux >= 4.0); False if not possible."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        return False
+    return True
+
+
+def peak_rss_growth_mb(fn: Callable[[], object]) -> float | None:
+    """Growth of the peak RSS while ``fn`` runs, MB (None where unsupported)."""
+    gc.collect()
+    if not reset_peak_rss():
+        return None
+    before = _status_kb("VmRSS")
+    fn()
+    return max(_status_kb("VmHWM") - before, 0) / 1024.0
+
+
+def measure(
+    name: str,
+    fn: Callable[[], object],
+    *,
+    n: int,
+    repeat: int,
+    unit: str = "samples",
+    amount: float | None = None,
+    memory: bool = True,
+    note: str = "",
+) -> Row:
+    """Median wall and CPU time of ``repeat`` calls, then the peak-RSS growth of one more."""
+    walls, cpus = [], []
+    for _ in range(repeat):
+        gc.collect()
+        c0, w0 = time.thread_time(), time.perf_counter()
+        fn()
+        w1, c1 = time.perf_counter(), time.thread_time()
+        walls.append(w1 - w0)
+        cpus.append(c1 - c0)
+    peak = peak_rss_growth_mb(fn) if memory else None
+    return Row(
+        name=name,
+        n=n,
+        wall_s=statistics.median(walls),
+        cpu_s=statistics.median(cpus),
+        unit=unit,
+        amount=float(n if amount is None else amount),
+        peak_mb=peak,
+        note=note,
+    )
+
+
+def _si(value: float) -> str:
+    for scale, suffix in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
+        if abs(value) >= scale:
+            return f"{value / scale:.3g}{suffix}"
+    return f"{value:.3g}"
+
+
+def format_table(table: Table) -> str:
+    """Plain-text table, one line per row."""
+    head = (
+        "name",
+        "n",
+        "median s",
+        "cpu s",
+        "rate/s",
+        "rate/cpu-s",
+        "peak MB",
+        "ratio",
+        "target",
+        "met",
+    )
+    lines = []
+    for r in table.rows:
+        unit = "samp" if r.unit == "samples" else r.unit
+        lines.append(
+            (
+                r.name,
+                _si(r.n),
+                f"{r.wall_s:.4f}",
+                f"{r.cpu_s:.4f}",
+                f"{_si(r.rate)} {unit}",
+                f"{_si(r.cpu_rate)} {unit}",
+                "-" if r.peak_mb is None else f"{r.peak_mb:.1f}",
+                "-" if r.ratio is None else f"{r.ratio:.2f}x",
+                r.target,
+                r.met,
+            )
+        )
+    widths = [max(len(h), *(len(x[i]) for x in lines)) for i, h in enumerate(head)]
+    out = [f"== {table.title}"]
+    out.append("  ".join(h.ljust(w) for h, w in zip(head, widths, strict=True)))
+    out.append("  ".join("-" * w for w in widths))
+    out += ["  ".join(c.ljust(w) for c, w in zip(x, widths, strict=True)) for x in lines]
+    for r in table.rows:
+        if r.note:
+            out.append(f"   * {r.name}: {r.note}")
+    out += [f"   {note}" for note in table.notes]
+    return "\n".join(out)
+
+
+def machine() -> dict[str, Any]:
+    """CPU model, core count, load and library versions."""
+    cpu = platform.processor() or "unknown"
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    import numpy as np
+
+    import accelcore
+
+    versions = {"python": platform.python_version(), "numpy": np.__version__}
+    for mod in ("pandas", "polars"):
+        try:
+            versions[mod] = __import__(mod).__version__
+        except ImportError:
+            versions[mod] = None
+    return {
+        "cpu_model": cpu,
+        "cores": os.cpu_count(),
+        "load_average": list(os.getloadavg()),
+        "platform": platform.platform(),
+        "accelcore": accelcore.__version__,
+        **versions,
+    }
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="accelcore bench", description="accelcore vs NumPy reference, pandas and polars"
+    )
+    p.add_argument("--large", action="store_true", help="add 1e8-sample kernels, 1e9 memory run")
+    p.add_argument("--quick", action="store_true", help="small sizes, one repetition (smoke)")
+    p.add_argument(
+        "--cases",
+        default="kernels,reading,end_to_end,memory",
+        help="comma-separated subset of: kernels, reading, end_to_end, memory",
+    )
+    p.add_argument(
+        "--output",
+        type=Path,
+        default=None,
+        help="JSON file (default benches/results/<date>-<host>.json; '-' for none)",
+    )
+    p.add_argument("--workdir", type=Path, default=None, help="where to write generated logs")
+    return p
+
+
+def _load_cases() -> Any:
+    benches = REPO / "benches"
+    if not (benches / "cases.py").is_file():
+        raise FileNotFoundError(
+            f"{benches} not found: the benchmark cases live in the source repository"
+        )
+    if str(REPO) not in sys.path:
+        sys.path.insert(0, str(REPO))
+    import benches.cases
+
+    return benches.cases
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the benchmark cases, print the tables and save the JSON results."""
+    args = _parser().parse_args(list(argv) if argv is not None else None)
+    try:
+        cases = _load_cases()
+    except (FileNotFoundError, ImportError) as exc:
+        print(f"accelcore bench: {exc}", file=sys.stderr)
+        return 2
+    import tempfile
+
+    wanted = [c.strip() for c in args.cases.split(",") if c.strip()]
+    unknown = [c for c in wanted if c not in cases.CASES]
+    if unknown:
+        print(f"accelcore bench: unknown case(s) {unknown}; have {list(cases.CASES)}")
+        return 2
+    info = machine()
+    print(
+        f"accelcore {info['accelcore']} | {info['cpu_model']} | {info['cores']} cores | "
+        f"load {info['load_average'][0]:.2f} | python {info['python']} numpy {info['numpy']} "
+        f"pandas {info['pandas']} polars {info['polars']} (POLARS_MAX_THREADS="
+        f"{os.environ.get('POLARS_MAX_THREADS')})"
+    )
+    started = time.perf_counter()
+    tables: list[Table] = []
+    with tempfile.TemporaryDirectory(prefix="accelcore-bench-") as tmp:
+        ctx = Context(large=args.large, quick=args.quick, workdir=args.workdir or Path(tmp))
+        for case in wanted:
+            t0 = time.perf_counter()
+            for table in cases.CASES[case](ctx):
+                tables.append(table)
+                print()
+                print(format_table(table), flush=True)
+            print(f"   ({case}: {time.perf_counter() - t0:.1f} s)")
+    elapsed = time.perf_counter() - started
+    print(f"\ntotal {elapsed:.1f} s")
+    if args.output is None or str(args.output) != "-":
+        out = args.output or (
+            REPO
+            / "benches"
+            / "results"
+            / f"{dt.date.today().isoformat()}-{socket.gethostname()}.json"
+        )
+        out.parent.mkdir(parents=True, exist_ok=True)
+        record = {
+            "date": dt.datetime.now().isoformat(timespec="seconds"),
+            "argv": list(argv) if argv is not None else sys.argv[1:],
+            "machine": info,
+            "elapsed_s": elapsed,
+            "tables": [
+                {
+                    "title": t.title,
+                    "notes": t.notes,
+                    "rows": [
+                        {**asdict(r), "rate_per_s": r.rate, "rate_per_cpu_s": r.cpu_rate}
+                        for r in t.rows
+                    ],
+                }
+                for t in tables
+            ],
+        }
+        out.write_text(json.dumps(record, indent=1) + "\n")
+        print(f"results: {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
