@@ -8,10 +8,10 @@ from typing import Any
 import numpy as np
 
 from accelcore import core, reference
-from accelcore.bench import Context, Row, Table, measure
+from accelcore.bench import Context, Table, measure
 from benches.data import FloatArray, log
 
-BINS = {"lo_c": -40.0, "hi_c": 85.0, "width_c": 0.5}
+BINS: dict[str, Any] = {"lo_c": -40.0, "hi_c": 85.0, "width_c": 0.5}
 T_REF_C = 25.0
 FUSED_RATE_TARGET = 100e6
 FUSED_RATIO_TARGET = 10.0
@@ -59,48 +59,42 @@ def accelcore_fused(t: FloatArray, temp: FloatArray, ch: FloatArray) -> object:
     return p.finish()
 
 
+def _one_size(table: Table, n: int, repeat: int, ref_repeat: int) -> None:
+    t, temp, ch = log(n)
+    design = np.column_stack([np.ones(n), temp - T_REF_C])
+    y = np.ascontiguousarray(ch[:, 0])
+    cases: list[tuple[str, Callable[[], object], Callable[[], object]]] = [
+        (
+            "decimate",
+            lambda: _decimate(core, t, temp, ch),
+            lambda: _decimate(reference, t, temp, ch),
+        ),
+        ("bin", lambda: _bin(core, t, temp, ch), lambda: _bin(reference, t, temp, ch)),
+        ("lstsq (p=2)", lambda: _lstsq(core, design, y), lambda: _lstsq(reference, design, y)),
+        ("fused", lambda: accelcore_fused(t, temp, ch), lambda: reference_fused(t, temp, ch)),
+    ]
+    for kernel, fast, slow in cases:
+        rows = [
+            measure(f"{kernel}: accelcore", fast, n=n, repeat=repeat),
+            measure(f"{kernel}: reference", slow, n=n, repeat=ref_repeat),
+        ]
+        if kernel == "fused":
+            fused = rows[0]
+            fused.target = ">=10x, >=100M samp/s"
+            ratio = rows[1].wall_s / fused.wall_s
+            ok_ratio, ok_rate = ratio >= FUSED_RATIO_TARGET, fused.rate >= FUSED_RATE_TARGET
+            fused.met = {2: "yes", 1: "partly", 0: "no"}[ok_ratio + ok_rate]
+        table.rows += rows
+
+
 def run(ctx: Context) -> list[Table]:
     sizes = [100_000] if ctx.quick else [1_000_000, 10_000_000]
     if ctx.large:
         sizes.append(100_000_000)
     table = Table("(a) kernels in memory: time, temperature, 3 channels, float64")
     for n in sizes:
-        t, temp, ch = log(n)
-        design = np.column_stack([np.ones(n), temp - T_REF_C])
-        y = np.ascontiguousarray(ch[:, 0])
         repeat = 1 if ctx.quick else (5 if n <= 1_000_000 else 3 if n <= 10_000_000 else 1)
-        ref_repeat = 1 if n > 10_000_000 else repeat
-        cases: list[tuple[str, Callable[[], object], Callable[[], object]]] = [
-            (
-                "decimate",
-                lambda: _decimate(core, t, temp, ch),
-                lambda: _decimate(reference, t, temp, ch),
-            ),
-            ("bin", lambda: _bin(core, t, temp, ch), lambda: _bin(reference, t, temp, ch)),
-            (
-                "lstsq (p=2)",
-                lambda: _lstsq(core, design, y),
-                lambda: _lstsq(reference, design, y),
-            ),
-            (
-                "fused",
-                lambda: accelcore_fused(t, temp, ch),
-                lambda: reference_fused(t, temp, ch),
-            ),
-        ]
-        for kernel, fast, slow in cases:
-            rows = [
-                measure(f"{kernel}: accelcore", fast, n=n, repeat=repeat),
-                measure(f"{kernel}: reference", slow, n=n, repeat=ref_repeat),
-            ]
-            if kernel == "fused":
-                fused = rows[0]
-                fused.target = ">=10x, >=100M samp/s"
-                ratio = rows[1].wall_s / fused.wall_s
-                ok_ratio, ok_rate = ratio >= FUSED_RATIO_TARGET, fused.rate >= FUSED_RATE_TARGET
-                fused.met = {2: "yes", 1: "partly", 0: "no"}[ok_ratio + ok_rate]
-            table.rows += rows
-        del t, temp, ch, design, y
+        _one_size(table, n, repeat, 1 if n > 10_000_000 else repeat)
     table.set_ratios(
         lambda r: r.name.replace("accelcore", "reference") if "accelcore" in r.name else None
     )

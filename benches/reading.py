@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from accelcore import read_run, reference
+from accelcore import reference
+from accelcore._accelcore import read_run
 from accelcore.bench import Context, Row, Table, measure
 from benches.data import FloatArray
 from benches.session_data import session_dir
@@ -58,7 +59,7 @@ def run(ctx: Context) -> list[Table]:
     repeat = 1 if ctx.quick else 5
     table = Table(f"(b) reading {path.name}: {n_rows} rows, {mb:.1f} MB -> 2 Hz block means")
     candidates: list[tuple[str, str | None, Callable[[], object]]] = [
-        ("accelcore.read_run", None, lambda: read_run(path)),
+        ("accelcore.read_run", None, lambda: read_run(str(path))),
         ("numpy.loadtxt + ref decimate", None, lambda: with_loadtxt(path)),
         ("pandas.read_csv + ref decimate", "pandas", lambda: with_pandas(path)),
         ("polars.read_csv + ref decimate", "polars", lambda: with_polars(path)),

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -351,6 +352,30 @@ def test_paper_method_refuses_a_session_without_an_opposite_pair() -> None:
         calibrate(s, method="paper")
 
 
+def test_single_orientation_without_a_nominal_sensitivity_says_what_would_fix_it() -> None:
+    """Volts, one orientation, no sensor named: no nominal to hold the sensitivity at."""
+    sim = simulate.arrays("ADXL335", seed=206, duration_h=0.5, orientations=("OZ-",))
+    s = Session.from_arrays([(r.orientation, r.columns) for r in sim.runs], units="V", rate_hz=20.0)
+    with pytest.raises(accelcore.InsufficientDataError, match=r"OX\+ and OX-\) or name the sensor"):
+        calibrate(s)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known issue: on the vertical axis of a single-orientation session the fitted "
+    "offset slope is offset_tc - g * sensitivity_tc (confounded), yet compare_datasheet "
+    "reports it as the measured offset tc with an in/out-of-spec flag",
+)
+def test_datasheet_comparison_does_not_report_a_confounded_offset_tc() -> None:
+    sim = simulate.arrays("ADXL335", seed=203, duration_h=0.5, orientations=("OZ-",))
+    s = Session.from_arrays(
+        [(r.orientation, r.columns) for r in sim.runs], units="V", rate_hz=20.0, sensor="ADXL335"
+    )
+    rows = table_rows(calibrate(s).compare_datasheet())
+    z = rows[("temperature coefficients", "offset_tc", "z")]
+    assert math.isnan(z["measured"]) and z["in_spec"] is None
+
+
 @pytest.mark.parametrize("units", ["g", "m/s2"])
 def test_six_orientation_session_in_scaled_units(units: str) -> None:
     sim = simulate.arrays("ADXL327", seed=205, duration_h=2.0)
@@ -426,6 +451,18 @@ def test_an_added_quadratic_offset_term_recovers_an_injected_curvature() -> None
 # --------------------------------------------------------------------------- datasheet tables
 
 
+Row = dict[str, Any]
+
+
+def table_rows(df: pd.DataFrame) -> dict[tuple[str, str, str], Row]:
+    """compare_datasheet's rows keyed by (table, parameter, axis), as plain dicts."""
+    out: dict[tuple[str, str, str], Row] = {}
+    for record in df.reset_index().to_dict("records"):
+        row = {str(k): v for k, v in record.items()}
+        out[(str(row["table"]), str(row["parameter"]), str(row["axis"]))] = row
+    return out
+
+
 def test_compare_datasheet_layout(
     sweeps: dict[str, tuple[simulate.SimulatedArrays, dict[str, Calibration]]],
 ) -> None:
@@ -434,23 +471,21 @@ def test_compare_datasheet_layout(
     assert isinstance(df, pd.DataFrame)
     assert list(df.index.names) == ["table", "parameter", "axis"]
     assert {"min", "typ", "max", "measured", "in_spec"} <= set(df.columns)
-    assert list(df.index.get_level_values("table").unique()) == [
-        "at T_ref",
-        "temperature coefficients",
-    ]
-    assert set(df.loc["at T_ref"].index.get_level_values("parameter")) == {
+    rows = table_rows(df)
+    assert len(rows) == len(df) == 6 * 3  # six parameters of three axes, no duplicates
+    assert list(dict.fromkeys(t for t, _, _ in rows)) == ["at T_ref", "temperature coefficients"]
+    assert {p for t, p, _ in rows if t == "at T_ref"} == {
         "sensitivity",
         "zero_g_offset",
         "+1 g",
         "-1 g",
     }
-    assert set(df.loc["temperature coefficients"].index.get_level_values("parameter")) == {
+    assert {p for t, p, _ in rows if t == "temperature coefficients"} == {
         "sensitivity_tc",
         "offset_tc",
     }
-    assert len(df) == 6 * 3
     s = cals["joint"].axis("x")
-    row = df.loc[("at T_ref", "+1 g", "x")]
+    row = rows[("at T_ref", "+1 g", "x")]
     assert row["measured"] == pytest.approx(s.zero_g_offset + s.sensitivity, rel=1e-15)
     assert (row["min"], row["typ"], row["max"]) == (1.62, 1.8, 1.98)
     text = cals["joint"].datasheet_text()
@@ -464,20 +499,21 @@ def test_the_papers_out_of_spec_flags_reproduce(
     """Table 5/6: ADXL335 z offset tc -3.602 mg/°C is out of ±1, sensitivity tc -0.012 %/°C
     out of ±0.01 (the paper's own remark); x and y are in spec."""
     _, cals = sweeps["ADXL335"]
-    df = cals[method].compare_datasheet()
-    tc = df.loc["temperature coefficients"]
-    z_off = tc.loc[("offset_tc", "z")]
+    rows = table_rows(cals[method].compare_datasheet())
+    tc = "temperature coefficients"
+    z_off = rows[(tc, "offset_tc", "z")]
     assert z_off["measured"] == pytest.approx(-3.602, abs=OFFSET_TC_TOL_MG_PER_C)
     assert (z_off["min"], z_off["max"]) == (-1.0, 1.0)
     assert z_off["in_spec"] is not None and not z_off["in_spec"]
-    z_sens = tc.loc[("sensitivity_tc", "z")]
+    z_sens = rows[(tc, "sensitivity_tc", "z")]
     assert z_sens["measured"] == pytest.approx(-0.012, abs=SENSITIVITY_TC_TOL_PCT_PER_C)
     assert (z_sens["min"], z_sens["max"]) == (-0.01, 0.01)
     assert z_sens["in_spec"] is not None and not z_sens["in_spec"]
     for a in "xy":
-        assert tc.loc[("offset_tc", a)]["in_spec"]
-        assert tc.loc[("sensitivity_tc", a)]["in_spec"]
-    assert df.loc["at T_ref"]["in_spec"].all()  # Table 3: every parameter within the ranges
+        assert rows[(tc, "offset_tc", a)]["in_spec"]
+        assert rows[(tc, "sensitivity_tc", a)]["in_spec"]
+    # Table 3: every parameter at T_ref within the manufacturer's ranges.
+    assert all(r["in_spec"] for (t, _, _), r in rows.items() if t == "at T_ref")
 
 
 @pytest.mark.parametrize("part", PARTS)
@@ -492,7 +528,6 @@ def test_spec_flags_follow_the_truth_for_every_part(
     """
     sim, cals = sweeps[part]
     sheet = datasheets.load(part)
-    df = cals["joint"].compare_datasheet()
     params = {
         "sensitivity": "sensitivity",
         "zero_g_offset": "zero_g_offset",
@@ -502,9 +537,8 @@ def test_spec_flags_follow_the_truth_for_every_part(
         "offset_tc": "offset_tc_mg_per_c",
     }
     checked = 0
-    for (_, label, axis), row in df.iterrows():  # type: ignore[misc]
-        i = AXES.index(str(axis))
-        t = truth_of(sim.truth, i)
+    for (_, label, axis), row in table_rows(cals["joint"].compare_datasheet()).items():
+        t = truth_of(sim.truth, AXES.index(axis))
         truth = {
             "sensitivity": t["sensitivity"],
             "zero_g_offset": t["zero_g_offset"],
@@ -512,8 +546,8 @@ def test_spec_flags_follow_the_truth_for_every_part(
             "-1 g": t["zero_g_offset"] - t["sensitivity"],
             "sensitivity_tc": t["sensitivity_tc_pct_per_c"],
             "offset_tc": t["offset_tc_mg_per_c"],
-        }[str(label)]
-        lim = sheet.limits(params[str(label)], str(axis))
+        }[label]
+        lim = sheet.limits(params[label], axis)
         if lim is None or not lim.has_bounds:
             assert row["in_spec"] is None
             continue

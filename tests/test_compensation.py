@@ -173,6 +173,7 @@ def test_out_of_range_temperature_warns_with_the_range(
     with pytest.warns(TemperatureRangeWarning, match=pattern) as record:
         acc = cal.compensate(raw, np.array(temps))
     assert len(record) == 1
+    assert record[0].filename == __file__  # attributed to the caller, not to accelcore
     assert np.all(np.isfinite(acc))
     n_out = sum(1 for t in temps if not lo <= t <= hi)
     assert f"{n_out} of {len(temps)} samples" in str(record[0].message)

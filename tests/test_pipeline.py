@@ -20,6 +20,7 @@ they agree up to rounding, never bit for bit:
 
 from __future__ import annotations
 
+import itertools
 import threading
 import time
 from typing import Any
@@ -117,7 +118,7 @@ def test_matches_reference_composition(
     t, temp, ch = make_log(n, seed, nan_fraction, gaps)
     p = FusedPipeline(min_count=min_count, **CONFIG)
     bounds = [0, *sorted(min(c, n) for c in cuts), n]
-    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+    for lo, hi in itertools.pairwise(bounds):
         p.push(t[lo:hi], temp[lo:hi], ch[lo:hi])
     binned, fits = composed(t, temp, ch, min_count=min_count)
     result = p.finish()
@@ -131,16 +132,14 @@ def test_matches_reference_composition(
     cuts=st.lists(st.integers(1, 5999), min_size=1, max_size=4, unique=True),
     reverse=st.booleans(),
 )
-def test_merge_of_pieces_equals_one_pass(
-    seed: int, n: int, cuts: list[int], reverse: bool
-) -> None:
+def test_merge_of_pieces_equals_one_pass(seed: int, n: int, cuts: list[int], reverse: bool) -> None:
     t, temp, ch = make_log(n, seed, 0.01)
     t0 = float(t[0])
     whole = FusedPipeline(t0_s=t0, **CONFIG)
     whole.push(t, temp, ch)
     bounds = [0, *sorted(min(c, n) for c in cuts), n]
     pieces = []
-    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+    for lo, hi in itertools.pairwise(bounds):
         piece = FusedPipeline(t0_s=t0, **CONFIG)
         piece.push(t[lo:hi], temp[lo:hi], ch[lo:hi])
         pieces.append(piece)

@@ -247,6 +247,28 @@ def test_non_numeric_cell_and_time_going_back(tmp_path: Path) -> None:
     assert (info.value.line, info.value.column) == (22, 1)
 
 
+def test_real_log_noise_is_handled_like_the_folder_reader(tmp_path: Path) -> None:
+    body = _rows(40)
+    body[3] = body[3].replace("1.5,1.8", "nan,1.8")
+    body[4] = body[4].replace("1.8,", ",")  # empty cell
+    body.insert(10, "\n")
+    text = "\ufeff" + LOG_HEADER + "".join(body) + "2.00,20.0,1.5"  # cut off mid-write
+    log = tmp_path / "noisy.csv"
+    log.write_bytes(text.replace("\n", "\r\n").encode())
+    run = readers.read_orientation_log(log, units="V", rate_hz=RATE).runs[0]
+    assert (run.stats.n_rows, run.stats.n_skipped_nonfinite, run.stats.n_truncated_rows) == (
+        40,
+        2,
+        1,
+    )
+    np.testing.assert_array_equal(run.count, [8, 10, 10, 10])
+    body = _rows(20)
+    body[8] = body[8].replace("OZ+", "1,OZ+")
+    with pytest.raises(accelcore.ParseError, match="line 10") as info:
+        readers.read_orientation_log(_small_log(tmp_path, body), units="V", rate_hz=RATE)
+    assert info.value.line == 10
+
+
 def test_other_layouts_and_bad_arguments(tmp_path: Path) -> None:
     log = tmp_path / "semi.csv"
     log.write_text(
@@ -439,3 +461,30 @@ def test_tdms_unequal_channel_lengths_warn(ref: Reference, tmp_path: Path) -> No
         session = readers.read_tdms(path, units="V")
     assert any(issubclass(w.category, DataQualityWarning) for w in caught)
     assert session.runs[0].stats.n_rows == 400
+
+
+def test_timestamp_time_columns(tmp_path: Path) -> None:
+    nptdms = pytest.importorskip("nptdms", reason="npTDMS not installed (accelcore[tdms])")
+    pa = pytest.importorskip("pyarrow", reason="pyarrow not installed (accelcore[parquet])")
+    pq = pytest.importorskip("pyarrow.parquet")
+    n = 400
+    stamps = np.datetime64("2024-05-06T09:00:00", "us") + np.arange(n) * np.timedelta64(50, "ms")
+    flat = {"temp_c": np.full(n, 20.0), "x": np.full(n, 1.5), "y": np.full(n, 1.5)}
+    flat["z"] = np.full(n, 1.8)
+    path = tmp_path / "stamps.tdms"
+    with nptdms.TdmsWriter(str(path)) as writer:
+        writer.write_segment(
+            [nptdms.GroupObject("g", properties={"orientation": "OZ-"})]
+            + [nptdms.ChannelObject("g", "time_s", stamps)]
+            + [nptdms.ChannelObject("g", c, v) for c, v in flat.items()]
+        )
+    tdms = readers.read_tdms(path, units="V")  # rate from the time stamps
+    assert tdms.rate_hz == RATE
+    table = pa.table({"time_s": pa.array(stamps), **flat})
+    pq.write_table(table, tmp_path / "stamps.parquet")
+    parquet = readers.read_parquet(
+        tmp_path / "stamps.parquet", units="V", rate_hz=RATE, orientation="OZ-"
+    )
+    for session in (tdms, parquet):
+        np.testing.assert_array_equal(session.runs[0].count, [10] * 40)
+        np.testing.assert_allclose(session.runs[0].time_s[:2], [0.225, 0.725], rtol=1e-12)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import gc
+import importlib
 import json
 import os
 import platform
@@ -218,7 +219,10 @@ def machine() -> dict[str, Any]:
 
     import accelcore
 
-    versions = {"python": platform.python_version(), "numpy": np.__version__}
+    versions: dict[str, str | None] = {
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+    }
     for mod in ("pandas", "polars"):
         try:
             versions[mod] = __import__(mod).__version__
@@ -256,16 +260,14 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _load_cases() -> Any:
-    benches = REPO / "benches"
-    if not (benches / "cases.py").is_file():
+    folder = REPO / "benches"
+    if not (folder / "cases.py").is_file():
         raise FileNotFoundError(
-            f"{benches} not found: the benchmark cases live in the source repository"
+            f"{folder} not found: the benchmark cases live in the source repository"
         )
     if str(REPO) not in sys.path:
         sys.path.insert(0, str(REPO))
-    import benches.cases
-
-    return benches.cases
+    return importlib.import_module("benches.cases")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -37,7 +37,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from accelcore import core
-from accelcore._accelcore import __version__
+from accelcore._accelcore import __version__, first_order_lag
 from accelcore._accelcore import compensate as _compensate
 from accelcore.errors import (
     CalibrationFileError,
@@ -49,7 +49,14 @@ from accelcore.errors import (
 from accelcore.model import AXES, Features, Term, base_terms, design_columns, evaluate_basis
 from accelcore.session import Session
 
-__all__ = ["CALIBRATION_FORMAT", "AxisModel", "Calibration", "calibrate", "nominal_sensitivity"]
+__all__ = [
+    "CALIBRATION_FORMAT",
+    "AxisModel",
+    "Calibration",
+    "Compensator",
+    "calibrate",
+    "nominal_sensitivity",
+]
 
 CALIBRATION_FORMAT = "accelcore-calibration/1"
 STANDARD_GRAVITY = 9.80665
@@ -108,10 +115,23 @@ class AxisModel:
     rms_residual: float
 
     def index(self, kind: str, basis: str, source: str | None = None) -> int | None:
-        """Position of a term, or None."""
+        """Position of a term, or None.
+
+        A ``dT^k`` basis that the model only has through a thermal lag
+        (``lag(tau):dT^k``, added by the diagnosis) matches that term.
+        """
         for i, t in enumerate(self.terms):
             if t.kind == kind and t.basis == basis and (kind == "offset" or t.source == source):
                 return i
+        if basis.startswith("dT^"):
+            for i, t in enumerate(self.terms):
+                if (
+                    t.kind == kind
+                    and t.basis.startswith("lag(")
+                    and t.basis.endswith(f"):{basis}")
+                    and (kind == "offset" or t.source == source)
+                ):
+                    return i
         return None
 
     def value(self, kind: str, basis: str, source: str | None = None) -> tuple[float, float]:
@@ -487,46 +507,17 @@ class Calibration:
             When a temperature lies outside :attr:`temperature_range_c`; the
             model is then extrapolated, never clamped.
         """
-        raw_a = np.ascontiguousarray(raw, dtype=np.float64)
-        if raw_a.ndim != 2 or raw_a.shape[1] != 3:
-            raise ParameterError(f"raw must have shape (n, 3), got {raw_a.shape}")
-        temp = np.ascontiguousarray(temp_c, dtype=np.float64).reshape(-1)
-        if temp.shape[0] != raw_a.shape[0]:
-            raise ParameterError(f"temp_c has {temp.shape[0]} values for {raw_a.shape[0]} rows")
-        self._warn_range(temp)
-        time_a = None if time_s is None else np.asarray(time_s, dtype=np.float64).reshape(-1)
-        feats = Features(
-            temp,
-            None if time_a is None else time_a - time_a[0],
-            {k: np.asarray(v, dtype=np.float64) for k, v in (extras or {}).items()},
-            self.t_ref_c,
-        )
-        bases, offset, gain = self._coefficient_matrices()
-        basis = np.column_stack([evaluate_basis(b, feats, self.references) for b in bases])
-        return _compensate(raw_a, basis, offset, gain)
+        return self.compensator(warn_stacklevel=4).push(raw, temp_c, time_s, extras)
 
-    def residuals(self, session: Session) -> pd.DataFrame:
-        """Error in mg of every decimated sample, with the observables (:func:`accelcore.diagnosis.residuals`)."""
-        from accelcore.diagnosis import residuals
+    def compensator(self, *, warn_stacklevel: int = 3) -> Compensator:
+        """Return a streaming compensator for logs larger than memory.
 
-        return residuals(self, session)
-
-    def _warn_range(self, temp: NDArray[np.float64]) -> None:
-        finite = temp[np.isfinite(temp)]
-        if finite.size == 0:
-            return
-        lo, hi = self.temperature_range_c
-        t_min, t_max = float(finite.min()), float(finite.max())
-        if t_min < lo or t_max > hi:
-            n_out = int(np.count_nonzero((finite < lo) | (finite > hi)))
-            warnings.warn(
-                TemperatureRangeWarning(
-                    f"{n_out} of {finite.size} samples lie outside the calibrated range "
-                    f"{lo:.2f}…{hi:.2f} °C (data spans {t_min:.2f}…{t_max:.2f} °C); "
-                    "the model is extrapolated there, not clamped"
-                ),
-                stacklevel=3,
-            )
+        Feed it consecutive chunks of one continuous log with
+        :meth:`Compensator.push`; terms that depend on earlier samples (thermal
+        lag, dT/dt) carry their state across chunks, so any chunking gives the
+        result of one :meth:`compensate` call over the whole log.
+        """
+        return Compensator(self, warn_stacklevel=warn_stacklevel)
 
     # ------------------------------------------------------------------ files
     def to_dict(self) -> dict[str, Any]:
@@ -630,6 +621,113 @@ class Calibration:
             )
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise CalibrationFileError(f"{where}: malformed calibration body: {exc!r}") from exc
+
+
+class _CarriedFeatures(Features):
+    """Features of one chunk whose lag filters start from the previous chunk's state."""
+
+    carried: dict[float, tuple[float, float, float]]
+
+    def lagged_temperature_c(self, tau_s: float) -> NDArray[np.float64]:
+        if tau_s not in self._lag_cache:
+            time_s = self._need_time(f"lag({tau_s})")
+            state = self.carried.get(tau_s)
+            if state is None:
+                y = first_order_lag(time_s, self.temperature_c, tau_s)
+            else:
+                last_t, last_x, last_y = state
+                t_ext = np.concatenate([[last_t], time_s])
+                x_ext = np.concatenate([[last_x], self.temperature_c])
+                y = first_order_lag(t_ext, x_ext, tau_s, last_y)[1:]
+            self._lag_cache[tau_s] = y
+        return self._lag_cache[tau_s]
+
+
+class Compensator:
+    """Streaming compensation: push consecutive chunks of one log, get acceleration in g.
+
+    Made by :meth:`Calibration.compensator`. Time is measured from the first
+    chunk's first sample; lag filters continue from the previous chunk's last
+    sample, so the result does not depend on the chunking.
+
+    Attributes
+    ----------
+    n_out_of_range : int
+        Samples so far outside the calibrated temperature range (warned once).
+    n_rows : int
+        Samples so far.
+    """
+
+    def __init__(self, calibration: Calibration, *, warn_stacklevel: int = 3) -> None:
+        self.calibration = calibration
+        self._bases, self._offset, self._gain = calibration._coefficient_matrices()
+        self._t0: float | None = None
+        self._carried: dict[float, tuple[float, float, float]] = {}
+        self._warned = False
+        self._stacklevel = warn_stacklevel
+        self.n_out_of_range = 0
+        self.n_rows = 0
+
+    def push(
+        self,
+        raw: ArrayLike,
+        temp_c: ArrayLike,
+        time_s: ArrayLike | None = None,
+        extras: Mapping[str, ArrayLike] | None = None,
+    ) -> NDArray[np.float64]:
+        """Compensate the next chunk; see :meth:`Calibration.compensate` for the arguments."""
+        cal = self.calibration
+        raw_a = np.ascontiguousarray(raw, dtype=np.float64)
+        if raw_a.ndim != 2 or raw_a.shape[1] != 3:
+            raise ParameterError(f"raw must have shape (n, 3), got {raw_a.shape}")
+        temp = np.ascontiguousarray(temp_c, dtype=np.float64).reshape(-1)
+        if temp.shape[0] != raw_a.shape[0]:
+            raise ParameterError(f"temp_c has {temp.shape[0]} values for {raw_a.shape[0]} rows")
+        self._check_range(temp)
+        rel = None
+        if time_s is not None:
+            time_a = np.asarray(time_s, dtype=np.float64).reshape(-1)
+            if time_a.shape[0] != temp.shape[0]:
+                raise ParameterError(f"time_s has {time_a.shape[0]} values for {temp.shape[0]}")
+            if self._t0 is None and time_a.size:
+                self._t0 = float(time_a[0])
+            rel = time_a - (self._t0 or 0.0)
+        feats = _CarriedFeatures(
+            temp,
+            rel,
+            {k: np.asarray(v, dtype=np.float64) for k, v in (extras or {}).items()},
+            cal.t_ref_c,
+        )
+        feats.carried = self._carried
+        n = raw_a.shape[0]
+        if self._bases:
+            basis = np.column_stack([evaluate_basis(b, feats, cal.references) for b in self._bases])
+        else:
+            basis = np.zeros((n, 0))
+        g = _compensate(raw_a, np.ascontiguousarray(basis), self._offset, self._gain)
+        if n and rel is not None:
+            for tau, y in feats._lag_cache.items():
+                self._carried[tau] = (float(rel[-1]), float(temp[-1]), float(y[-1]))
+        self.n_rows += n
+        return g
+
+    def _check_range(self, temp: NDArray[np.float64]) -> None:
+        finite = temp[np.isfinite(temp)]
+        if finite.size == 0:
+            return
+        lo, hi = self.calibration.temperature_range_c
+        outside = int(np.count_nonzero((finite < lo) | (finite > hi)))
+        self.n_out_of_range += outside
+        if outside and not self._warned:
+            self._warned = True
+            warnings.warn(
+                TemperatureRangeWarning(
+                    f"{outside} of {finite.size} samples lie outside the calibrated range "
+                    f"{lo:.2f}…{hi:.2f} °C (data spans {finite.min():.2f}…{finite.max():.2f} "
+                    "°C); the model is extrapolated there, not clamped"
+                ),
+                stacklevel=self._stacklevel,
+            )
 
 
 def _lim(lim: Any, which: str) -> float:

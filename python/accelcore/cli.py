@@ -255,60 +255,6 @@ def _parse_column_options(items: Sequence[str]) -> dict[str, str]:
     return columns
 
 
-class _ChunkFeatures:
-    """Continuity across chunks for bases that depend on earlier samples (lags, dT/dt, drift).
-
-    A first-order lag carried from one chunk to the next gives exactly the
-    one-pass result: the previous chunk's last sample is prepended and its
-    lagged value used as the initial state.
-    """
-
-    def __init__(self) -> None:
-        self.t0: float | None = None
-        self.last_time: float | None = None
-        self.last_temp: float | None = None
-        self.lag_state: dict[float, float] = {}
-
-    def features(
-        self,
-        temp: NDArray[np.float64],
-        time_s: NDArray[np.float64],
-        extras: Mapping[str, NDArray[np.float64]],
-        t_ref_c: float,
-    ) -> Any:
-        from accelcore._accelcore import first_order_lag
-        from accelcore.model import Features
-
-        state = self
-        if self.t0 is None and time_s.size:
-            self.t0 = float(time_s[0])
-        rel = time_s - (self.t0 or 0.0)
-
-        class _Features(Features):
-            def lagged_temperature_c(self, tau_s: float) -> NDArray[np.float64]:
-                if tau_s in self._lag_cache:
-                    return self._lag_cache[tau_s]
-                t = self._need_time(f"lag({tau_s})")
-                if state.last_time is not None and tau_s in state.lag_state:
-                    t_ext = np.concatenate([[state.last_time - (state.t0 or 0.0)], t])
-                    x_ext = np.concatenate([[state.last_temp], self.temperature_c])
-                    y = first_order_lag(t_ext, x_ext, tau_s, initial=state.lag_state[tau_s])[1:]
-                else:
-                    y = first_order_lag(t, self.temperature_c, tau_s)
-                self._lag_cache[tau_s] = y
-                return y
-
-        return _Features(temp, rel, extras, t_ref_c)
-
-    def advance(self, feats: Any, temp: NDArray[np.float64], time_s: NDArray[np.float64]) -> None:
-        if not temp.size:
-            return
-        for tau, y in feats._lag_cache.items():
-            self.lag_state[tau] = float(y[-1])
-        self.last_time = float(time_s[-1])
-        self.last_temp = float(temp[-1])
-
-
 def _compensate_chunks(
     cal: Any,
     chunks: Iterator[pd.DataFrame],
@@ -317,28 +263,23 @@ def _compensate_chunks(
     extra_names: Sequence[str],
 ) -> Iterator[tuple[pd.DataFrame, NDArray[np.float64], int]]:
     """Yield per chunk: the input frame, acceleration in g, and samples outside the range."""
-    from accelcore._accelcore import compensate as rust_compensate
-    from accelcore.model import evaluate_basis
+    import warnings
 
-    bases, offset, gain = cal._coefficient_matrices()
-    carry = _ChunkFeatures()
-    lo, hi = cal.temperature_range_c
+    from accelcore.errors import TemperatureRangeWarning
+
+    comp = cal.compensator()
     for frame in chunks:
-        raw = np.ascontiguousarray(
-            frame[[names["x"], names["y"], names["z"]]].to_numpy(dtype=np.float64)
-        )
-        temp = np.ascontiguousarray(frame[names["temperature"]].to_numpy(dtype=np.float64))
-        time_s = frame[names["time"]].to_numpy(dtype=np.float64) * time_scale
-        extras = {k: frame[k].to_numpy(dtype=np.float64) for k in extra_names}
-        feats = carry.features(temp, time_s, extras, cal.t_ref_c)
-        if bases:
-            basis = np.column_stack([evaluate_basis(b, feats, cal.references) for b in bases])
-        else:
-            basis = np.zeros((len(frame), 0))
-        g = rust_compensate(raw, np.ascontiguousarray(basis), offset, gain)
-        carry.advance(feats, temp, time_s)
-        finite = temp[np.isfinite(temp)]
-        yield frame, g, int(np.count_nonzero((finite < lo) | (finite > hi)))
+        before = comp.n_out_of_range
+        with warnings.catch_warnings():
+            # The command reports the total once at the end instead.
+            warnings.simplefilter("ignore", TemperatureRangeWarning)
+            g = comp.push(
+                frame[[names["x"], names["y"], names["z"]]].to_numpy(dtype=np.float64),
+                frame[names["temperature"]].to_numpy(dtype=np.float64),
+                frame[names["time"]].to_numpy(dtype=np.float64) * time_scale,
+                {k: frame[k].to_numpy(dtype=np.float64) for k in extra_names},
+            )
+        yield frame, g, comp.n_out_of_range - before
 
 
 def _cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:

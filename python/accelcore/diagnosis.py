@@ -309,7 +309,7 @@ class _Spec:
 
 
 def _spec_from_terms(axis: str, terms: Sequence[Term]) -> _Spec | None:
-    """The spec a base calibration's terms correspond to, or None if outside the space."""
+    """Return the spec a base calibration's terms correspond to (None: outside the space)."""
     spec = _Spec(offset_order=0, gain_order=0)
     has = set()
     plain = {t.basis for t in terms if t.kind == "offset"}
@@ -525,7 +525,9 @@ class _Engine:
         self.n = int(sum(sizes))
         self.part_start = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
         self.w = np.concatenate(wts)
-        self.gravity = np.vstack([np.broadcast_to(g, (s, 3)) for g, s in zip(grav, sizes)])
+        self.gravity = np.vstack(
+            [np.broadcast_to(g, (s, 3)) for g, s in zip(grav, sizes, strict=True)]
+        )
         self.output = np.vstack(out)
         self.temperature = np.concatenate([f.temperature_c for f in feats])
         self.elapsed_s = np.concatenate([np.asarray(f.time_s) for f in feats])
@@ -571,18 +573,20 @@ class _Engine:
                 s0 = nominal[a_i] if nominal else 1.0
             self.scale[a] = float(s0)
             fixed = [
-                (t, float(c))
-                for t, c, e in zip(m.terms, m.coefficients, m.estimated, strict=True)
+                (term, float(c))
+                for term, c, e in zip(m.terms, m.coefficients, m.estimated, strict=True)
                 if not e
             ]
             self.fixed[a] = fixed
             y = self.output[:, a_i].copy()
-            for t, c in fixed:
-                y -= c * self.column(t)
+            for term, c in fixed:
+                y -= c * self.column(term)
             # Centre with the base model's constant and own-gain terms (in every model's span).
             c_off, _ = m.value("offset", "1")
             y -= c_off
-            if not any(t.kind == "gain" and t.basis == "1" and t.source == a for t, _ in fixed):
+            if not any(
+                term.kind == "gain" and term.basis == "1" and term.source == a for term, _ in fixed
+            ):
                 y -= s0 * self.gravity[:, a_i]
             self.y[a] = y * (1000.0 / self.scale[a])
 
@@ -909,6 +913,7 @@ class Diagnosis:
                 "step": s.index,
                 "effect": s.effect,
                 "axes": ",".join(s.axes),
+                "variant": "; ".join(f"{a}: {v}" for a, v in s.variant.items()),
                 "parameters": "; ".join(_fmt_param(p) for p in s.parameters),
                 "rms_in_before_mg": prev.rms_in_mg,
                 "rms_in_after_mg": s.rms_in_mg,
@@ -930,12 +935,14 @@ class Diagnosis:
         return pd.DataFrame(rows)
 
     def heldout_table(self) -> pd.DataFrame:
-        """Held-out RMS error per step, fold and axis (mg): rows step/effect, columns fold x axis."""
+        """Held-out RMS error per step, fold and axis (mg), one row each."""
         rows = []
         for s in self.steps:
             for fold, per_axis in s.rms_out_fold_axis_mg.items():
                 for a, v in per_axis.items():
-                    rows.append({"step": s.index, "effect": s.effect, "fold": fold, "axis": a, "rms_mg": v})
+                    rows.append(
+                        {"step": s.index, "effect": s.effect, "fold": fold, "axis": a, "rms_mg": v}
+                    )
         return pd.DataFrame(rows)
 
     def evaluate(self, terms: Mapping[str, Sequence[Term]]) -> pd.DataFrame:
@@ -992,13 +999,15 @@ class Diagnosis:
             f"{'step':>4}  {'effect':<22}{'axes':<7}{'RMS in':>9}{'RMS out':>9}"
             f"{'max out':>9}{'cut':>7}   (mg, all axes; before → after)",
         ]
-        for r in rep.itertuples():
+        for r in rep.to_dict(orient="records"):
             lines.append(
-                f"{r.step:>4}  {r.effect:<22}{r.axes:<7}{r.rms_in_after_mg:>9.3f}"
-                f"{r.rms_out_after_mg:>9.3f}{r.max_out_after_mg:>9.2f}{r.cut_pct:>6.1f}%"
+                f"{r['step']:>4}  {r['effect']:<22}{r['axes']:<7}{r['rms_in_after_mg']:>9.3f}"
+                f"{r['rms_out_after_mg']:>9.3f}{r['max_out_after_mg']:>9.2f}{r['cut_pct']:>6.1f}%"
             )
-            if r.parameters:
-                lines.append(f"{'':>6}{r.parameters}")
+            if r["variant"]:
+                lines.append(f"{'':>6}{r['variant']}")
+            if r["parameters"]:
+                lines.append(f"{'':>6}{r['parameters']}")
         per_axis = "  ".join(
             f"{a}: {self.steps[0].rms_out_axis_mg[a]:.3f} → {self.steps[-1].rms_out_axis_mg[a]:.3f}"
             for a in AXES
@@ -1056,7 +1065,9 @@ class Diagnosis:
         try:
             import matplotlib.pyplot as plt
         except ImportError as exc:  # pragma: no cover - optional dependency
-            raise ImportError("Diagnosis.plot needs matplotlib (pip install accelcore[plot])") from exc
+            raise ImportError(
+                "Diagnosis.plot needs matplotlib (pip install accelcore[plot])"
+            ) from exc
         if self._engine is None:
             raise ParameterError("this Diagnosis was restored without its data")
         session = self._engine.session
@@ -1192,7 +1203,7 @@ def _search_tau(
 
 
 def _tau_se(eng: _Engine, axis: str, spec: _Spec) -> float:
-    """Standard error of tau from the curvature of the in-sample SSE profile."""
+    """Return the standard error of tau from the curvature of the in-sample SSE profile."""
     variant = "die" if spec.tau is not None else "rate"
     tau = spec.tau if spec.tau is not None else spec.rate_tau
     if tau is None:
@@ -1261,7 +1272,7 @@ def _structures(
     alpha: float,
     min_structure_mg: float,
 ) -> list[Structure]:
-    """Generic check: binned means of the residual against each observable."""
+    """Bin the residual by each observable and test the binned means (generic check)."""
     obs: dict[str, tuple[FloatArray, bool]] = {
         "temperature_c": (eng.temperature, False),
         "dtemp_dt_c_per_min": (eng.rate, False),
@@ -1357,10 +1368,13 @@ def _period_note(eng: _Engine, r: FloatArray, sigma: float) -> str:
 
 
 def _params(
-    eng: _Engine, models: Mapping[str, AxisModel], axes: Sequence[str], family: str,
-    specs: Mapping[str, _Spec]
+    eng: _Engine,
+    models: Mapping[str, AxisModel],
+    axes: Sequence[str],
+    family: str,
+    specs: Mapping[str, _Spec],
 ) -> list[dict[str, Any]]:
-    """Added parameters with standard errors, converted to readable units."""
+    """Return the added parameters with standard errors, in readable units."""
     out: list[dict[str, Any]] = []
     for a in axes:
         m = models[a]
@@ -1395,14 +1409,22 @@ def _params(
             se = math.sqrt(max(float(var), 0.0)) if est else math.nan
             basis = t.basis.split(":", 1)[1] if t.basis.startswith("lag(") else t.basis
             if t.kind == "offset":
-                unit = {"elapsed_h": "mg/h"}.get(basis, "mg/°C^" + basis[3:] if basis.startswith("dT^") else "mg/unit")
+                unit = {"elapsed_h": "mg/h"}.get(
+                    basis, "mg/°C^" + basis[3:] if basis.startswith("dT^") else "mg/unit"
+                )
                 factor = 1000.0 / s
             elif t.source == a:
                 unit, factor = "%/°C^" + basis[3:], 100.0 / s
             else:
                 unit, factor = "deg", math.degrees(1.0) / s
             out.append(
-                {"axis": a, "name": t.name, "value": float(c) * factor, "se": se * factor, "unit": unit}
+                {
+                    "axis": a,
+                    "name": t.name,
+                    "value": float(c) * factor,
+                    "se": se * factor,
+                    "unit": unit,
+                }
             )
     return out
 
@@ -1427,7 +1449,9 @@ def _fit_models(
 
 def _step_figures(
     eng: _Engine, specs: Mapping[str, _Spec]
-) -> tuple[dict[str, float], dict[str, float], dict[str, float], dict[str, dict[str, float]], float, float]:
+) -> tuple[
+    dict[str, float], dict[str, float], dict[str, float], dict[str, dict[str, float]], float, float
+]:
     rms_in, rms_out, max_out, max_in = {}, {}, {}, {}
     fold_axis: dict[str, dict[str, float]] = {name: {} for name in eng.fold_names}
     for a in AXES:
@@ -1569,13 +1593,31 @@ def diagnose(
     cand_rows: list[dict[str, Any]] = []
 
     def make_step(
-        idx: int, effect: str, axes: tuple[str, ...], variant: dict[str, str],
-        params: list[dict[str, Any]], cut: dict[str, float], pval: dict[str, float],
+        idx: int,
+        effect: str,
+        axes: tuple[str, ...],
+        variant: dict[str, str],
+        params: list[dict[str, Any]],
+        cut: dict[str, float],
+        pval: dict[str, float],
     ) -> Step:
         rms_in, rms_out, max_out, fold_axis, max_in_all, max_out_all = _step_figures(eng, specs)
         return Step(
-            idx, effect, axes, variant, params, _pooled(rms_in), max_in_all, _pooled(rms_out),
-            max_out_all, rms_in, rms_out, max_out, fold_axis, cut, pval,
+            idx,
+            effect,
+            axes,
+            variant,
+            params,
+            _pooled(rms_in),
+            max_in_all,
+            _pooled(rms_out),
+            max_out_all,
+            rms_in,
+            rms_out,
+            max_out,
+            fold_axis,
+            cut,
+            pval,
             {a: specs[a].terms(a) for a in AXES},
         )
 
@@ -1587,12 +1629,12 @@ def diagnose(
         for family in families:
             for a in AXES:
                 cur = cv_cur[a]
-                options: list[tuple[str, str, _CV, _Spec]] = []
+                tried: list[tuple[str, str, _CV, _Spec]] = []
                 if family == "thermal_lag":
                     if specs[a].tau is None and specs[a].rate_tau is None:
                         for variant, what in (("die", "die lag"), ("rate", "rate term")):
                             tau, cv = _search_tau(eng, a, specs[a], tau_range_s, variant)
-                            options.append(
+                            tried.append(
                                 (
                                     family,
                                     f"{what}, tau {tau:.3g} s",
@@ -1604,12 +1646,12 @@ def diagnose(
                     for fam, label, spec in _variants(
                         family, a, specs[a], eng, max_order, usable_extras
                     ):
-                        options.append((fam, label, eng.cv(a, spec.terms(a)), spec))
-                if not options:
+                        tried.append((fam, label, eng.cv(a, spec.terms(a)), spec))
+                if not tried:
                     continue
                 # Per family name (extra:NAME are separate families): parsimony among orders.
                 groups: dict[str, list[tuple[str, str, _CV, _Spec]]] = {}
-                for o in options:
+                for o in tried:
                     groups.setdefault(o[0], []).append(o)
                 for fam, opts in groups.items():
                     best_rms = min(o[2].rms_out for o in opts)
@@ -1668,7 +1710,9 @@ def diagnose(
         )
     # Final calibration with the chosen terms (core least squares).
     models, fixed, fit_notes = _fit_models(eng, specs)
-    added = [f"{s.effect} on {','.join(s.axes)} ({'; '.join(s.variant.values())})" for s in steps[1:]]
+    added = [
+        f"{s.effect} on {','.join(s.axes)} ({'; '.join(s.variant.values())})" for s in steps[1:]
+    ]
     improved = Calibration(
         method="diagnosed",
         units=base.units,

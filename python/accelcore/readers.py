@@ -593,8 +593,10 @@ def read_orientation_log(
         )
 
         with open(file, "rb") as fh:
-            unterminated = fh.seek(0, os.SEEK_END) > 0 and fh.seek(-1, os.SEEK_END) >= 0
-            unterminated = unterminated and fh.read(1) != b"\n"
+            size = fh.seek(0, os.SEEK_END)
+            if size:
+                fh.seek(-1, os.SEEK_END)
+            unterminated = bool(size) and fh.read(1) != b"\n"
 
         def chunks() -> Iterator[_Chunk]:
             first_line = 2  # header is line 1
@@ -721,8 +723,8 @@ def read_parquet(
         :func:`read_orientation_log`. Every other integer or floating-point
         column is kept as an extra observable; other types are ignored.
     time_unit : str, default "s"
-        Unit of a numeric time column; a timestamp column is converted to
-        seconds since the epoch whatever ``time_unit`` says.
+        Unit of a numeric time column; a timestamp column counts seconds from
+        the file's first timestamp, whatever ``time_unit`` says.
     sensor, serial, decimation_factor, min_count, settle_s
         As in :func:`read_orientation_log` (``settle_s`` applies to every run).
 
@@ -803,10 +805,12 @@ def read_parquet(
         )
         return out
 
+    origin: list[Any] = []
+
     def time_of(array: Any) -> _FloatArray:
         if pa.types.is_timestamp(array.type):
-            ns = pc.cast(array, pa.timestamp("ns")).cast(pa.int64())
-            return as_float(ns) * 1e-9
+            stamps = pc.cast(array, pa.timestamp("ns")).to_numpy(zero_copy_only=False)
+            return _timestamp_seconds(np.asarray(stamps, dtype="datetime64[ns]"), origin)
         return as_float(array) * scale
 
     def chunks() -> Iterator[_Chunk]:
@@ -863,19 +867,36 @@ def read_parquet(
 # --------------------------------------------------------------------------- TDMS
 
 
+def _nominal_rate(rate_hz: float) -> float:
+    """Round a rate computed from an interval to 10 significant digits (0.05 s gives 20 Hz).
+
+    A rate a hair below the nominal one would shift every block boundary that
+    falls exactly on a sample.
+    """
+    return float(f"{rate_hz:.10g}")
+
+
 def _tdms_prop(obj: Any, name: str) -> Any:
     props = getattr(obj, "properties", {})
     return props.get(name)
 
 
+def _timestamp_seconds(data: NDArray[Any], origin: list[Any]) -> _FloatArray:
+    """Seconds of datetime64 values from the first one seen (kept in ``origin``); NaT: NaN."""
+    stamps = data.astype("datetime64[ns]")
+    valid = ~np.isnat(stamps)
+    if not origin and valid.any():
+        origin.append(stamps[int(np.argmax(valid))])
+    seconds = np.full(stamps.shape, np.nan)
+    if origin:
+        seconds[valid] = (stamps[valid] - origin[0]).astype(np.int64).astype(np.float64) * 1e-9
+    return seconds
+
+
 def _tdms_time(data: NDArray[Any], origin: list[Any], scale: float) -> _FloatArray:
     """Seconds of a time channel chunk; timestamps count from the group's first one."""
     if np.issubdtype(data.dtype, np.datetime64):
-        stamps = data.astype("datetime64[ns]")
-        if not origin:
-            origin.append(stamps[0])
-        seconds: _FloatArray = (stamps - origin[0]).astype(np.int64).astype(np.float64) * 1e-9
-        return seconds
+        return _timestamp_seconds(data, origin)
     return np.asarray(data, dtype=np.float64) * scale
 
 
@@ -899,7 +920,8 @@ def read_tdms(
     Expected layout: one group per run, holding a channel per quantity (names
     from ``channel_map``, defaults ``time_s, temp_c, x, y, z``). The time channel
     is optional: without it, time is computed from the x channel's waveform
-    properties, ``wf_start_offset + i / (1 / wf_increment)`` s (``wf_start_time``,
+    properties, ``wf_start_offset + i / rate`` s with ``rate = 1 / wf_increment``
+    rounded to 10 significant digits (``wf_start_time``,
     the absolute start, is not needed). Every other numeric channel of the group
     with the same length is kept as an extra observable. The group's
     ``orientation`` property names its orientation unless ``orientation`` is given.
@@ -913,7 +935,8 @@ def read_tdms(
         ``V``, ``LSB``, ``g`` or ``m/s2``.
     rate_hz : float, optional
         Nominal sample rate; default ``1 / wf_increment`` of the x channel, else
-        the median interval of the first samples of the time channel.
+        1 / the median interval of the time channel's first 1000 intervals, both
+        rounded to 10 significant digits.
     group : str or sequence of str, optional
         The group(s) to read, in this order; default every group holding the
         x, y, z and temperature channels, in file order.
@@ -1070,7 +1093,7 @@ def _tdms_group(
             f"{where}: no time channel {names['time']!r} and no wf_increment property "
             f"on channel {names['x']!r}: cannot tell when the samples were taken"
         )
-    wf_rate = 1.0 / float(increment) if increment else None
+    wf_rate = _nominal_rate(1.0 / float(increment)) if increment else None
     start = float(_tdms_prop(x, "wf_start_offset") or 0.0)
     lengths = {c: len(channels[c]) for c in needed}
     if time_ch is not None:
@@ -1100,7 +1123,7 @@ def _tdms_group(
             raise SessionFormatError(
                 f"{where}: cannot infer the sample rate from the time channel; pass rate_hz="
             )
-        rate = 1.0 / float(np.median(steps))
+        rate = _nominal_rate(1.0 / float(np.median(steps)))
     builder = _RunBuilder(
         label,
         source=where,

@@ -127,9 +127,7 @@ class SensitivityCurvature:
         """Add ``S_25 k2/100 (T-25)^2 g`` to ``state.output``."""
         dt = (state.die_temp_c - _T_REF_C)[:, None]
         rel = _vec3(self.pct_per_c2) / 100.0 * dt**2
-        state.output = (
-            state.output + rel * state.truth.sensitivity_per_g * state.specific_force_g
-        )
+        state.output = state.output + rel * state.truth.sensitivity_per_g * state.specific_force_g
 
 
 @dataclass(frozen=True)
@@ -278,7 +276,7 @@ class SupplySensitivity:
         return "output"
 
     def supply_v(self, time_s: npt.ArrayLike, orientation: str) -> FloatArray:
-        """The supply voltage of a run, V."""
+        """Return the supply voltage of a run, V."""
         t = np.asarray(time_s, dtype=np.float64)
         t = t - t[0]
         key = sum((i + 1) * ord(c) for i, c in enumerate(orientation))
@@ -291,7 +289,7 @@ class SupplySensitivity:
         return np.asarray(self.nominal_v + wander + steps, dtype=np.float64)
 
     def extra_columns(self, time_s: FloatArray, orientation: str) -> dict[str, FloatArray]:
-        """The logged columns this effect implies: ``{"supply_v": ...}``."""
+        """Return the logged columns this effect implies: ``{"supply_v": ...}``."""
         return {"supply_v": np.round(self.supply_v(time_s, orientation), 5)}
 
     def apply(self, state: RunState, rng: np.random.Generator) -> None:

@@ -635,6 +635,8 @@ fn incompatible(reason: String) -> Error {
 
 /// Whether every time is finite and the times strictly increase, starting
 /// above `prev`. Branch-free over the chunk (vectorises); NaN compares false.
+// `&` not `&&`: no early exit, so the loop vectorises (the common case passes).
+#[allow(clippy::needless_bitwise_bool)]
 fn all_finite_increasing(prev: Option<f64>, time_s: &[f64]) -> bool {
     let (Some(&first), Some(&last)) = (time_s.first(), time_s.last()) else {
         return true;

@@ -1,0 +1,15 @@
+"""The benchmark cases, by name, in the order ``accelcore bench`` runs them."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from accelcore.bench import Context, Table
+from benches import end_to_end, kernels, memory, reading
+
+CASES: dict[str, Callable[[Context], list[Table]]] = {
+    "kernels": kernels.run,
+    "reading": reading.run,
+    "end_to_end": end_to_end.run,
+    "memory": memory.run,
+}
