@@ -168,8 +168,9 @@ def test_report_text_json_and_plot() -> None:
     assert rep.loc[0, "effect"] == "base"
     for col in ("rms_in_before_mg", "rms_out_after_mg", "max_out_after_mg", "parameters"):
         assert col in rep.columns
-    assert "±" in rep.loc[1, "parameters"]
-    assert rep.loc[1, "rms_out_after_mg"] < rep.loc[1, "rms_out_before_mg"]
+    row = rep.to_dict(orient="records")[1]
+    assert "±" in str(row["parameters"])
+    assert float(row["rms_out_after_mg"]) < float(row["rms_out_before_mg"])
     json.dumps(d.to_dict())
     text = d.text()
     assert "offset_curvature" in text

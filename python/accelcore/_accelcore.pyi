@@ -422,8 +422,8 @@ class FusedPipeline:
     boundary may fall inside a block (each piece holds back its first and last block).
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         *,
         factor: int = 10,
         rate_hz: float = 20.0,
@@ -434,7 +434,7 @@ class FusedPipeline:
         hi_c: float = 60.0,
         width_c: float = 0.5,
         t_ref_c: float = 25.0,
-    ) -> None: ...
+    ) -> FusedPipeline: ...
     def push(self, time_s: ArrayLike, temperature_c: ArrayLike, channels: ArrayLike) -> None:
         """Push ``n`` raw samples: time (s), temperature (°C), channels ``(n, n_channels)``.
 

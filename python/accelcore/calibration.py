@@ -40,6 +40,7 @@ from accelcore import core
 from accelcore._accelcore import __version__, first_order_lag
 from accelcore._accelcore import compensate as _compensate
 from accelcore.errors import (
+    AccelcoreIOError,
     CalibrationFileError,
     InsufficientDataError,
     ParameterError,
@@ -341,7 +342,15 @@ class Calibration:
         rows = []
         for a in self.axes:
             s = self.axis(a)
-            sens_known = f"{a}:sensitivity" not in self.not_identified
+            unknown = {n.split(":", 1)[1] for n in self.not_identified if n.startswith(f"{a}:")}
+            needs = {
+                "sensitivity": {"sensitivity"},
+                "zero_g_offset": {"offset"},
+                "output_at_plus_1g": {"offset", "sensitivity"},
+                "output_at_minus_1g": {"offset", "sensitivity"},
+                "sensitivity_tc_pct_per_c": {"sensitivity", "sensitivity_tc"},
+                "offset_tc_mg_per_c": {"offset_tc"},
+            }
             params: list[tuple[str, str, str, float, float, str]] = [
                 (
                     "at T_ref",
@@ -394,7 +403,7 @@ class Calibration:
             ]
             for table, label, parameter, value, se, unit in params:
                 lim = sheet.limits(parameter, a)
-                if not sens_known and parameter != "offset_tc_mg_per_c":
+                if needs[parameter] & unknown:
                     value, se = math.nan, math.nan
                 in_spec = None if lim is None or math.isnan(value) else lim.contains(value)
                 rows.append(
@@ -467,6 +476,11 @@ class Calibration:
             if a not in self.axes:
                 raise InsufficientDataError(f"the calibration has no model of axis {a}")
             m = self.axes[a]
+            if not np.all(np.isfinite(m.coefficients)):
+                raise InsufficientDataError(
+                    f"axis {a} is not calibrated ({'; '.join(self.notes) or 'no model'}); "
+                    "it cannot be compensated"
+                )
             for t, c in zip(m.terms, m.coefficients, strict=True):
                 k = bases.index(t.basis)
                 if t.kind == "offset":
@@ -518,6 +532,15 @@ class Calibration:
         result of one :meth:`compensate` call over the whole log.
         """
         return Compensator(self, warn_stacklevel=warn_stacklevel)
+
+    def residuals(self, session: Session) -> pd.DataFrame:
+        """Error in mg of every decimated sample, with the observables.
+
+        See :func:`accelcore.diagnosis.residuals`.
+        """
+        from accelcore.diagnosis import residuals
+
+        return residuals(self, session)
 
     # ------------------------------------------------------------------ files
     def to_dict(self) -> dict[str, Any]:
@@ -573,7 +596,13 @@ class Calibration:
         """
         where = str(path)
         try:
-            doc = json.loads(Path(path).read_text())
+            data = Path(path).read_bytes()
+        except OSError as exc:
+            raise AccelcoreIOError(
+                f"{where}: cannot read calibration file: {exc.strerror}"
+            ) from exc
+        try:
+            doc = json.loads(data.decode("utf-8"))
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise CalibrationFileError(
                 f"{where}: not a calibration file (truncated or corrupted JSON: {exc})"
@@ -878,6 +907,21 @@ def fit_axis(
                 "these orientations); the fitted offset absorbs the rest"
             )
         fixed_names.append(names[j])
+        if t.kind == "gain" and t.source == axis and col_norm[j] > 0:
+            # The axis saw gravity, but one value of it only: this gain term is
+            # collinear with the offset term of the same basis, which then carries
+            # their sum. Say so rather than report it as the offset.
+            twin = next(
+                (k for k, u in enumerate(terms) if u.kind == "offset" and u.basis == t.basis),
+                None,
+            )
+            if twin is not None and estimated[twin]:
+                fixed_names.append(names[twin])
+                notes.append(
+                    f"{axis}: {_public_name(terms[twin], axis)} is identified only combined "
+                    f"with {_public_name(t, axis)} (one orientation of this axis); compensation "
+                    "of that orientation is right, the separate value is not"
+                )
     # Refit if a nominal was introduced after the loop (response changed).
     if np.any(fixed != 0):
         cols = np.flatnonzero(estimated)

@@ -1345,15 +1345,15 @@ def _binned_chi2(r: FloatArray, bins: NDArray[np.int64], sigma: float) -> tuple[
 def _period_note(eng: _Engine, r: FloatArray, sigma: float) -> str:
     """Strongest period of the residual in time (periodogram over the parts)."""
     t = eng.elapsed_s
-    spans = [float(np.ptp(t[eng.sample_part == p])) for p in np.unique(eng.sample_part)]
+    spans = [float(np.ptp(t[eng.sample_run == r])) for r in np.unique(eng.sample_run)]
     span = max(spans)
     if span < 900:
         return ""
-    # At least three cycles inside the longest part.
+    # At least three cycles inside the longest run.
     periods = np.geomspace(120.0, span / 3.0, 160)
     power = np.zeros(periods.size)
-    for p in np.unique(eng.sample_part):
-        sel = eng.sample_part == p
+    for run in np.unique(eng.sample_run):
+        sel = eng.sample_run == run
         rp = r[sel] - r[sel].mean()
         tp = t[sel]
         phase = np.exp(-2j * np.pi * tp[None, :] / periods[:, None])
@@ -1691,6 +1691,17 @@ def diagnose(
         for c in chosen:
             specs[c.axis] = c.spec
             cv_cur[c.axis] = c.cv
+        # Revisit the lag of every axis given the terms added since it was chosen
+        # (variant and tau); keep the better by held-out error.
+        if best_fam != "thermal_lag":
+            for a in AXES:
+                if specs[a].tau is None and specs[a].rate_tau is None:
+                    continue
+                bare = replace(specs[a], tau=None, rate_tau=None)
+                for variant in ("die", "rate"):
+                    tau, cv = _search_tau(eng, a, bare, tau_range_s, variant)
+                    if cv.rms_out < cv_cur[a].rms_out * 0.999:
+                        specs[a], cv_cur[a] = _with_tau(bare, variant, tau), cv
         taus = [t for s in specs.values() for t in (s.tau, s.rate_tau) if t is not None]
         eng.drop_lag_cache(taus)
         axes = tuple(c.axis for c in chosen)

@@ -1,0 +1,88 @@
+"""The diagnosis on a measured log: tofupilot's public IMU thermal cycle (one orientation).
+
+The data is read from ``../shared/realdata/tofupilot_thermal_cycle`` (beside the
+repository; it is not copied into it) or from ``$ACCELCORE_REALDATA``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from accelcore.diagnosis import Diagnosis, diagnose
+from accelcore.model import AXES, Term
+from accelcore.session import load_session
+
+_NAME = "tofupilot_thermal_cycle"
+
+
+def _folder() -> Path:
+    env = os.environ.get("ACCELCORE_REALDATA")
+    if env:
+        p = Path(env)
+        return p / _NAME if (p / _NAME).is_dir() else p
+    return Path(__file__).resolve().parents[2] / "shared" / "realdata" / _NAME
+
+
+FOLDER = _folder()
+pytestmark = pytest.mark.skipif(
+    not (FOLDER / "session.toml").is_file(),
+    reason=f"real data not found at {FOLDER} (set ACCELCORE_REALDATA to the folder)",
+)
+
+
+def cubic_terms() -> dict[str, tuple[Term, ...]]:
+    """PX4/ArduPilot: per axis, offset a cubic polynomial in temperature (gain nominal)."""
+    return {
+        a: (
+            Term("offset", "1"),
+            Term("offset", "dT^1"),
+            Term("offset", "dT^2"),
+            Term("offset", "dT^3"),
+            Term("gain", "1", source=a),
+        )
+        for a in AXES
+    }
+
+
+def realdata_table(d: Diagnosis) -> pd.DataFrame:
+    """Held-out RMS (mg) per leg and axis: fixed cubic, then the model after each step."""
+    cubic = d.evaluate(cubic_terms())
+    cubic = cubic[cubic["fold"] != "all"].assign(model="fixed cubic (PX4/ArduPilot)")
+    steps = d.heldout_table().rename(columns={"rms_mg": "rms_out_mg"})
+    steps["model"] = [f"step {s}: {e}" for s, e in zip(steps["step"], steps["effect"], strict=True)]
+    both = pd.concat([cubic[["model", "fold", "axis", "rms_out_mg"]], steps], ignore_index=True)
+    return both.pivot_table(
+        index="model", columns=["axis", "fold"], values="rms_out_mg", sort=False
+    )
+
+
+@pytest.fixture(scope="module")
+def diagnosis() -> Diagnosis:
+    session = load_session(FOLDER, decimation_factor=1)
+    return diagnose(session, window_c=None)
+
+
+def test_legs_are_the_cool_heat_cool_cycle(diagnosis: Diagnosis) -> None:
+    assert diagnosis.scheme == "legs"
+    assert diagnosis.folds == ("leg 1 (cooling)", "leg 2 (heating)", "leg 3 (cooling)")
+
+
+def test_z_beats_the_fixed_cubic_on_every_held_out_leg(diagnosis: Diagnosis) -> None:
+    cubic = diagnosis.evaluate(cubic_terms()).set_index(["fold", "axis"])["rms_out_mg"]
+    final = diagnosis.steps[-1].rms_out_fold_axis_mg
+    for fold in diagnosis.folds:
+        assert final[fold]["z"] < cubic[(fold, "z")], fold
+    last = diagnosis.folds[-1]
+    assert final[last]["z"] <= 0.5 * cubic[(last, "z")]
+    # The hysteresis between heating and cooling is found (lag / rate dependence).
+    assert "thermal_lag" in diagnosis.effects
+    print("\n" + realdata_table(diagnosis).round(2).to_string())
+
+
+def test_single_orientation_is_said(diagnosis: Diagnosis) -> None:
+    assert "z:sensitivity" in diagnosis.calibration.not_identified
+    assert "misalignment" not in diagnosis.effects
