@@ -80,6 +80,7 @@ def run(ctx: Context) -> list[Table]:
         table.set_ratios(lambda r: "numpy.loadtxt + ref decimate")
     table.notes.append(
         "ratio = baseline median / row median; polars runs on one thread "
-        "(POLARS_MAX_THREADS=1), as do all the others"
+        "(POLARS_MAX_THREADS=1), as do all the others; polars parses in its own worker "
+        "thread, so its rate/cpu-s (calling thread only) is not comparable"
     )
     return [table]

@@ -24,13 +24,6 @@ from strategies import FloatArray, RegressionCase, chunks, collinear_cases, piec
 
 Kernel = Any  # accelcore.core.LeastSquares or reference.LeastSquares
 
-NDIM_XFAIL = pytest.mark.xfail(
-    raises=TypeError,
-    strict=True,
-    reason="spec: a shape mismatch raises accelcore.ShapeError; the binding's array "
-    "extraction raises TypeError for an array of the wrong number of dimensions",
-)
-
 
 def push_rows(kernel: Kernel, case: RegressionCase, bounds: list[int]) -> Kernel:
     """Push the rows of ``case`` cut at ``bounds``; return the kernel."""
@@ -354,8 +347,8 @@ def test_negative_weight_is_rejected() -> None:
         (np.ones((3, 3)), np.ones(3), None),  # wrong column count
         (np.ones((3, 2)), np.ones(2), None),  # response too short
         (np.ones((3, 2)), np.ones(3), np.ones(4)),  # weights too long
-        pytest.param(np.ones(3), np.ones(3), None, marks=NDIM_XFAIL, id="design-1d"),
-        pytest.param(np.ones((3, 2)), np.ones((3, 1)), None, marks=NDIM_XFAIL, id="response-2d"),
+        pytest.param(np.ones(3), np.ones(3), None, id="design-1d"),
+        pytest.param(np.ones((3, 2)), np.ones((3, 1)), None, id="response-2d"),
     ],
 )
 def test_shape_errors(design: FloatArray, response: FloatArray, weights: FloatArray | None) -> None:

@@ -252,8 +252,13 @@ fn map_columns(path: &str, header: &[String], format: &CsvFormat) -> Result<Colu
     }
     let mut names = format.channel_columns.clone();
     if format.keep_extra_columns {
+        // A mask, not `channels.contains`: linear in the header width.
+        let mut used = vec![false; header.len()];
+        for &i in [time, temperature].iter().chain(&channels) {
+            used[i] = true;
+        }
         for (i, h) in header.iter().enumerate() {
-            if i != time && i != temperature && !channels.contains(&i) {
+            if !used[i] {
                 channels.push(i);
                 names.push(h.clone());
             }

@@ -127,14 +127,20 @@ fn nul_bytes_bom_only_and_invalid_utf8() {
         2,
         "is not a number",
     );
-    parse_error_at(read(b"time_s,temp_c,x,y,z\n0,20,1,2,3\0\n"), 2, "not a number");
+    parse_error_at(
+        read(b"time_s,temp_c,x,y,z\n0,20,1,2,3\0\n"),
+        2,
+        "not a number",
+    );
 }
 
 #[test]
 fn extreme_numbers_do_not_overflow() {
     // Times 1e308 apart overflow (t - t0) to inf; block indices saturate.
-    let run = read(b"time_s,temp_c,x,y,z\n-1e308,20,1,2,3\n1e308,20,1,2,3\n1.7e308,1e308,-1e308,1e-320,0\n")
-        .unwrap();
+    let run = read(
+        b"time_s,temp_c,x,y,z\n-1e308,20,1,2,3\n1e308,20,1,2,3\n1.7e308,1e308,-1e308,1e-320,0\n",
+    )
+    .unwrap();
     assert_eq!(run.n_rows, 3);
     assert!(run.blocks.block_index.windows(2).all(|w| w[0] < w[1]));
     // Numbers beyond f64 parse as inf and are skipped and counted.
@@ -172,7 +178,11 @@ fn delimiter_storms_and_lone_carriage_returns() {
     parse_error_at(read(b"time_s,temp_c,x,y,z\n,,,,,,,,,,,,\n"), 2, "fields");
     parse_error_at(read(b",,,,\n"), 1, "missing column");
     // Empty cells only: every row non-finite.
-    parse_error_at(read(b"time_s,temp_c,x,y,z\n,,,,\n,,,,\n"), 2, "finite values");
+    parse_error_at(
+        read(b"time_s,temp_c,x,y,z\n,,,,\n,,,,\n"),
+        2,
+        "finite values",
+    );
     // A bare \r is not a line end: it stays in the cell.
     parse_error_at(
         read(b"time_s,temp_c,x,y,z\n0,20,1,2,3\r1,20,1,2,3\n"),
@@ -180,7 +190,11 @@ fn delimiter_storms_and_lone_carriage_returns() {
         "'3\r1' is not a number",
     );
     // Quotes are not CSV quoting here: a clear error, not a crash.
-    parse_error_at(read(b"time_s,temp_c,x,y,z\n\"0\",20,1,2,3\n"), 2, "not a number");
+    parse_error_at(
+        read(b"time_s,temp_c,x,y,z\n\"0\",20,1,2,3\n"),
+        2,
+        "not a number",
+    );
 }
 
 #[test]

@@ -5,7 +5,7 @@ use ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
-use crate::gateway::{run_detached, slice_or_copy, In1, In2};
+use crate::gateway::{array1, array2, count, run_detached, slice_or_copy};
 
 /// Fixed-width temperature binner (see `accelcore.core.TemperatureBinner` in the stubs).
 #[pyclass(name = "TemperatureBinner", module = "accelcore.core")]
@@ -69,7 +69,8 @@ impl PyBinnedStats {
 impl PyTemperatureBinner {
     #[new]
     #[pyo3(signature = (*, lo_c = 0.0, hi_c = 60.0, width_c = 0.5, n_channels = 3))]
-    fn new(lo_c: f64, hi_c: f64, width_c: f64, n_channels: usize) -> PyResult<Self> {
+    fn new(lo_c: f64, hi_c: f64, width_c: f64, n_channels: i64) -> PyResult<Self> {
+        let n_channels = count("n_channels", n_channels)?;
         let config = BinnerConfig {
             lo_c,
             hi_c,
@@ -84,10 +85,13 @@ impl PyTemperatureBinner {
     fn push(
         &mut self,
         py: Python<'_>,
-        time_s: In1<'_>,
-        temperature_c: In1<'_>,
-        channels: In2<'_>,
+        time_s: &Bound<'_, PyAny>,
+        temperature_c: &Bound<'_, PyAny>,
+        channels: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
+        let time_s = array1(time_s, "time_s dimensions")?;
+        let temperature_c = array1(temperature_c, "temperature_c dimensions")?;
+        let channels = array2(channels, "channels dimensions")?;
         let (time_s, temperature_c) = (slice_or_copy(&time_s), slice_or_copy(&temperature_c));
         let channels = channels.as_array();
         let inner = &mut self.inner;

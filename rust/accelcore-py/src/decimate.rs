@@ -5,7 +5,7 @@ use ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
-use crate::gateway::{run_detached, slice_or_copy, In1, In2};
+use crate::gateway::{array1, array2, count, run_detached, slice_or_copy};
 
 /// Time-aligned block-mean decimator (see `accelcore.core.Decimator` in the stubs).
 #[pyclass(name = "Decimator", module = "accelcore.core")]
@@ -56,17 +56,17 @@ impl PyDecimator {
     #[new]
     #[pyo3(signature = (*, factor = 10, rate_hz = 20.0, n_channels = 3, min_count = 1, t0_s = None))]
     fn new(
-        factor: usize,
+        factor: i64,
         rate_hz: f64,
-        n_channels: usize,
-        min_count: usize,
+        n_channels: i64,
+        min_count: i64,
         t0_s: Option<f64>,
     ) -> PyResult<Self> {
         let config = DecimatorConfig {
-            factor,
+            factor: count("factor", factor)?,
             rate_hz,
-            n_channels,
-            min_count,
+            n_channels: count("n_channels", n_channels)?,
+            min_count: count("min_count", min_count)?,
             t0_s,
         };
         let inner = Decimator::new(config).map_err(crate::errors::CoreError)?;
@@ -77,10 +77,13 @@ impl PyDecimator {
     fn push(
         &mut self,
         py: Python<'_>,
-        time_s: In1<'_>,
-        temperature_c: In1<'_>,
-        channels: In2<'_>,
+        time_s: &Bound<'_, PyAny>,
+        temperature_c: &Bound<'_, PyAny>,
+        channels: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
+        let time_s = array1(time_s, "time_s dimensions")?;
+        let temperature_c = array1(temperature_c, "temperature_c dimensions")?;
+        let channels = array2(channels, "channels dimensions")?;
         let (time_s, temperature_c) = (slice_or_copy(&time_s), slice_or_copy(&temperature_c));
         let channels = channels.as_array();
         let inner = &mut self.inner;

@@ -31,3 +31,41 @@ pub(crate) fn slice_or_copy<'a>(array: &'a In1<'_>) -> Cow<'a, [f64]> {
         Err(_) => Cow::Owned(array.as_array().iter().copied().collect()),
     }
 }
+
+/// Turn a failed extraction into a `ShapeError` when the input has another number of
+/// dimensions than `ndim` (plain extraction would say `TypeError`).
+fn dimension_error(obj: &Bound<'_, PyAny>, ndim: usize, what: &'static str, err: PyErr) -> PyErr {
+    let got = obj.getattr("ndim").and_then(|n| n.extract::<usize>()).ok();
+    match got {
+        Some(got) if got != ndim => CoreError(accelcore_core::Error::Shape {
+            what,
+            expected: ndim,
+            got,
+        })
+        .into(),
+        _ => err,
+    }
+}
+
+/// A 1-D float64 input, with a `ShapeError` naming `what` for another dimensionality.
+pub(crate) fn array1<'py>(obj: &Bound<'py, PyAny>, what: &'static str) -> PyResult<In1<'py>> {
+    obj.extract::<In1<'py>>()
+        .map_err(|e| dimension_error(obj, 1, what, e.into()))
+}
+
+/// A 2-D float64 input, with a `ShapeError` naming `what` for another dimensionality.
+pub(crate) fn array2<'py>(obj: &Bound<'py, PyAny>, what: &'static str) -> PyResult<In2<'py>> {
+    obj.extract::<In2<'py>>()
+        .map_err(|e| dimension_error(obj, 2, what, e.into()))
+}
+
+/// A count argument: negative values are a `ParameterError`, not an `OverflowError`.
+pub(crate) fn count(name: &'static str, value: i64) -> PyResult<usize> {
+    usize::try_from(value).map_err(|_| {
+        CoreError(accelcore_core::Error::InvalidParameter {
+            name,
+            reason: format!("must be >= 0, got {value}"),
+        })
+        .into()
+    })
+}

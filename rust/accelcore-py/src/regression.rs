@@ -5,7 +5,7 @@ use ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 
-use crate::gateway::{run_detached, slice_or_copy, In1, In2};
+use crate::gateway::{array1, array2, count, run_detached, slice_or_copy};
 
 /// Incremental weighted least squares (see `accelcore.core.LeastSquares` in the stubs).
 #[pyclass(name = "LeastSquares", module = "accelcore.core")]
@@ -60,7 +60,8 @@ impl PyLstsqSolution {
 impl PyLeastSquares {
     #[new]
     #[pyo3(signature = (n_columns, *, column_names = None))]
-    fn new(n_columns: usize, column_names: Option<Vec<String>>) -> PyResult<Self> {
+    fn new(n_columns: i64, column_names: Option<Vec<String>>) -> PyResult<Self> {
+        let n_columns = count("n_columns", n_columns)?;
         let inner = LeastSquares::new(n_columns, column_names).map_err(crate::errors::CoreError)?;
         Ok(Self { inner })
     }
@@ -70,10 +71,15 @@ impl PyLeastSquares {
     fn push(
         &mut self,
         py: Python<'_>,
-        design: In2<'_>,
-        response: In1<'_>,
-        weights: Option<In1<'_>>,
+        design: &Bound<'_, PyAny>,
+        response: &Bound<'_, PyAny>,
+        weights: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
+        let design = array2(design, "design dimensions")?;
+        let response = array1(response, "response dimensions")?;
+        let weights = weights
+            .map(|w| array1(w, "weights dimensions"))
+            .transpose()?;
         let response = slice_or_copy(&response);
         let weights = weights.as_ref().map(slice_or_copy);
         let design = design.as_array();

@@ -1,0 +1,410 @@
+"""Data-quality checks of a loaded session: what deserves a look before calibrating.
+
+:func:`check_session` inspects what the reader counted in each raw log
+(:class:`accelcore.session.RunStats`) and the decimated output, and returns one
+:class:`QualityIssue` per finding, each with a message that says what was seen
+and, where it applies, what data would fix it. With ``warn=True`` (the
+default) each issue is also emitted as an :class:`accelcore.errors.DataQualityWarning`.
+
+Checks
+------
+``rate``
+    The mean raw sample rate differs from ``rate_hz`` by more than ``rate_tolerance``.
+``gaps``
+    Intervals between raw rows longer than 1.5 nominal periods (blocks stay aligned).
+``nonfinite``
+    Rows skipped because a value was NaN, infinite or empty (counted per run and in all).
+``truncated``
+    A last line cut off mid-write was dropped.
+``clipping``
+    Many raw samples at exactly one extreme value of a channel: output at the rails.
+``outliers``
+    Decimated blocks far from a running median (robust z-score), i.e. spikes.
+``step``
+    A persistent level change in the static output (the sensor moved), with its time.
+``temperature``
+    The logged temperature does not cover the analysis window, or too few
+    temperature bins hold data of both orientations of an axis.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+from numpy.typing import NDArray
+
+from accelcore.errors import DataQualityWarning
+
+if TYPE_CHECKING:
+    from accelcore.session import Run, Session
+
+__all__ = ["QualityIssue", "check_session"]
+
+AXES = ("x", "y", "z")
+#: Robust standard deviations per unit of median absolute deviation (normal data).
+MAD_TO_SIGMA = 1.4826
+#: Blocks processed at a time by the sliding-window statistics (bounded memory).
+_CHUNK = 1 << 16
+
+
+@dataclass(frozen=True)
+class QualityIssue:
+    """One finding of :func:`check_session`.
+
+    Attributes
+    ----------
+    kind : str
+        ``rate``, ``gaps``, ``nonfinite``, ``truncated``, ``clipping``,
+        ``outliers``, ``step`` or ``temperature``.
+    message : str
+        What was seen and what to do about it.
+    run : str or None
+        Label of the run (its file name), or None for a session-wide finding.
+    channel : str or None
+        The channel concerned, if one.
+    time_s : float or None
+        When it happened (run time, s), for ``step`` and the first of ``outliers``.
+    count : int or None
+        How many rows, blocks or bins, where that is the measure.
+    """
+
+    kind: str
+    message: str
+    run: str | None = None
+    channel: str | None = None
+    time_s: float | None = None
+    count: int | None = None
+
+
+def check_session(
+    session: Session,
+    *,
+    rate_tolerance: float = 0.1,
+    clip_fraction: float = 0.002,
+    clip_min_samples: int = 20,
+    outlier_z: float = 8.0,
+    outlier_window: int = 9,
+    step_z: float = 12.0,
+    step_window: int = 20,
+    window_c: tuple[float, float] | None = (0.0, 60.0),
+    bin_width_c: float = 0.5,
+    min_bins: int = 3,
+    warn: bool = True,
+) -> list[QualityIssue]:
+    """Check a session for data problems; return (and by default warn about) each.
+
+    Parameters
+    ----------
+    session : Session
+        From :func:`accelcore.load_session` or :meth:`Session.from_arrays`.
+    rate_tolerance : float, default 0.1
+        Relative difference of the mean raw rate from ``rate_hz`` that is reported.
+    clip_fraction, clip_min_samples : float, int
+        A channel is reported as clipped when at least ``clip_min_samples`` and
+        ``clip_fraction`` of its raw rows sit exactly at its minimum or maximum.
+    outlier_z, outlier_window : float, int
+        A decimated block whose robust z-score against a running median of
+        ``outlier_window`` blocks exceeds ``outlier_z`` is an outlier.
+    step_z, step_window : float, int
+        A step is a difference between the medians of the ``step_window``
+        blocks after and before a point whose robust z-score exceeds ``step_z``.
+    window_c : (float, float) or None, default (0, 60)
+        Analysis window (as in :func:`accelcore.calibrate`); None skips the
+        temperature checks.
+    bin_width_c : float, default 0.5
+        Temperature bin width, °C (as in :func:`accelcore.calibrate`).
+    min_bins : int, default 3
+        Fewest bins holding both orientations of an axis that a fit needs.
+    warn : bool, default True
+        Also emit each issue as a :class:`~accelcore.errors.DataQualityWarning`.
+
+    Returns
+    -------
+    list of QualityIssue
+        Empty when nothing was found.
+    """
+    issues: list[QualityIssue] = []
+    total_nonfinite = 0
+    for run in session.runs:
+        issues += _check_rate_and_gaps(run, session.rate_hz, rate_tolerance)
+        total_nonfinite += run.stats.n_skipped_nonfinite
+        issues += _check_counts(run)
+        issues += _check_clipping(run, clip_fraction, clip_min_samples)
+        for a, axis in enumerate(AXES):
+            if len(run) == 0:
+                continue
+            y = np.asarray(run.output[:, a], dtype=np.float64)
+            issues += _check_outliers(run, axis, y, outlier_z, outlier_window)
+            issues += _check_steps(run, axis, y, step_z, step_window)
+    if total_nonfinite and sum(1 for r in session.runs if r.stats.n_skipped_nonfinite) > 1:
+        issues.append(
+            QualityIssue(
+                "nonfinite",
+                f"{total_nonfinite} rows skipped in all runs (NaN, infinite or empty values)",
+                count=total_nonfinite,
+            )
+        )
+    if window_c is not None:
+        issues += _check_temperature(session, window_c, bin_width_c, min_bins)
+    if warn:
+        for issue in issues:
+            where = f"{issue.run}: " if issue.run else ""
+            warnings.warn(f"{where}{issue.message}", DataQualityWarning, stacklevel=2)
+    return issues
+
+
+def _check_rate_and_gaps(run: Run, rate_hz: float, tolerance: float) -> list[QualityIssue]:
+    stats = run.stats
+    out: list[QualityIssue] = []
+    rate = stats.mean_rate_hz
+    intervals = max(stats.n_rows - 1, 0)
+    rate_off = math.isfinite(rate) and abs(rate / rate_hz - 1.0) > tolerance
+    if rate_off:
+        hint = (
+            "; check rate_hz and time_unit in session.toml"
+            if stats.n_gaps < 0.5 * intervals
+            else "; nearly every interval is longer than 1.5 periods: the log is slower "
+            "than rate_hz, or time_unit is wrong"
+        )
+        out.append(
+            QualityIssue(
+                "rate",
+                f"mean sample rate {rate:.6g} Hz differs from rate_hz = {rate_hz:g} Hz "
+                f"by {100 * (rate / rate_hz - 1):+.0f} %{hint}",
+                run=run.label,
+                count=stats.n_rows,
+            )
+        )
+    if stats.n_gaps and not (rate_off and stats.n_gaps >= 0.5 * intervals):
+        out.append(
+            QualityIssue(
+                "gaps",
+                f"{stats.n_gaps} gap(s) in the log (intervals > 1.5 periods), longest "
+                f"{stats.max_interval_s:.6g} s; blocks stay on the time grid",
+                run=run.label,
+                count=stats.n_gaps,
+            )
+        )
+    return out
+
+
+def _check_counts(run: Run) -> list[QualityIssue]:
+    stats = run.stats
+    out: list[QualityIssue] = []
+    if stats.n_skipped_nonfinite:
+        share = stats.n_skipped_nonfinite / max(stats.n_rows, 1)
+        out.append(
+            QualityIssue(
+                "nonfinite",
+                f"{stats.n_skipped_nonfinite} of {stats.n_rows} rows ({100 * share:.3g} %) "
+                "skipped: a NaN, infinite or empty value",
+                run=run.label,
+                count=stats.n_skipped_nonfinite,
+            )
+        )
+    if stats.n_truncated_rows:
+        out.append(
+            QualityIssue(
+                "truncated",
+                "the last line was cut off mid-write and dropped",
+                run=run.label,
+                count=stats.n_truncated_rows,
+            )
+        )
+    return out
+
+
+def _channel_names(run: Run) -> list[str]:
+    return list(AXES) + list(run.extras)
+
+
+def _check_clipping(run: Run, fraction: float, min_samples: int) -> list[QualityIssue]:
+    stats = run.stats
+    out: list[QualityIssue] = []
+    if stats.n_rows == 0 or stats.n_at_min.size == 0:
+        return out
+    threshold = max(float(min_samples), fraction * stats.n_rows)
+    names = _channel_names(run)
+    for c in range(min(3, stats.n_at_min.size)):
+        lo, hi = float(stats.channel_min[c]), float(stats.channel_max[c])
+        if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
+            continue
+        for which, value, n in (
+            ("minimum", lo, int(stats.n_at_min[c])),
+            ("maximum", hi, int(stats.n_at_max[c])),
+        ):
+            if n >= threshold:
+                out.append(
+                    QualityIssue(
+                        "clipping",
+                        f"channel {names[c]}: {n} of {stats.n_rows} raw samples "
+                        f"({100 * n / stats.n_rows:.3g} %) sit exactly at the {which} "
+                        f"{value:.9g}: output clipped at the rail; exclude them or reduce "
+                        "the range (gain, supply, orientation)",
+                        run=run.label,
+                        channel=names[c],
+                        count=n,
+                    )
+                )
+    return out
+
+
+def _running_median(y: NDArray[np.float64], window: int) -> NDArray[np.float64]:
+    """Centred running median (window shrinks to the data at the ends), in chunks."""
+    n = y.shape[0]
+    half = window // 2
+    padded = np.pad(y, half, mode="reflect") if n > half else np.pad(y, half, mode="edge")
+    out = np.empty(n)
+    for start in range(0, n, _CHUNK):
+        stop = min(start + _CHUNK, n)
+        view = sliding_window_view(padded[start : stop + 2 * half], 2 * half + 1)
+        out[start:stop] = np.median(view, axis=1)
+    return out
+
+
+def _robust_sigma(r: NDArray[np.float64]) -> float:
+    """Robust standard deviation of ``r``: MAD, else mean absolute deviation, else 0."""
+    r = r[np.isfinite(r)]
+    if r.size == 0:
+        return 0.0
+    sigma = MAD_TO_SIGMA * float(np.median(np.abs(r - np.median(r))))
+    if sigma == 0.0:
+        sigma = math.sqrt(math.pi / 2) * float(np.mean(np.abs(r - np.median(r))))
+    return sigma
+
+
+def _check_outliers(
+    run: Run, axis: str, y: NDArray[np.float64], z_max: float, window: int
+) -> list[QualityIssue]:
+    if y.shape[0] < 2 * window:
+        return []
+    resid = y - _running_median(y, window)
+    sigma = _robust_sigma(resid)
+    if sigma == 0.0:
+        return []
+    bad = np.flatnonzero(np.abs(resid) > z_max * sigma)
+    if bad.size == 0:
+        return []
+    first = float(run.time_s[bad[0]])
+    worst = float(np.max(np.abs(resid[bad])) / sigma)
+    return [
+        QualityIssue(
+            "outliers",
+            f"axis {axis}: {bad.size} decimated block(s) are spikes (robust z up to "
+            f"{worst:.3g}, first at t = {first:.6g} s); the fit's robust weights "
+            "limit their effect",
+            run=run.label,
+            channel=axis,
+            time_s=first,
+            count=int(bad.size),
+        )
+    ]
+
+
+def _check_steps(
+    run: Run, axis: str, y: NDArray[np.float64], z_min: float, window: int
+) -> list[QualityIssue]:
+    """Find persistent level changes: median after minus median before each point."""
+    n = y.shape[0]
+    if n < 4 * window:
+        return []
+    # The noise of one block, from first differences (insensitive to slow drift and
+    # to a few steps); its floor is the output resolution.
+    d = np.diff(y)
+    sigma = _robust_sigma(d) / math.sqrt(2.0)
+    nonzero = np.abs(d[d != 0])
+    if nonzero.size:
+        sigma = max(sigma, float(nonzero.min()))
+    if sigma == 0.0:
+        return []
+    medians = np.empty(n - window + 1)
+    for start in range(0, medians.shape[0], _CHUNK):
+        stop = min(start + _CHUNK, medians.shape[0])
+        view = sliding_window_view(y[start : stop + window - 1], window)
+        medians[start:stop] = np.median(view, axis=1)
+    # jump[i]: median of y[i : i + w] minus median of y[i - w : i], for i in [w, n - w].
+    jump = medians[window:] - medians[: medians.shape[0] - window]
+    # Standard error of the difference of two medians of w normal samples.
+    se = math.sqrt(math.pi / 2) * sigma * math.sqrt(2.0 / window)
+    z = np.abs(jump) / se
+    out: list[QualityIssue] = []
+    above = z > z_min
+    if not above.any():
+        return out
+    # One finding per run of consecutive points above the threshold: its peak.
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], above.astype(np.int8), [0]])))
+    for lo, hi in zip(edges[::2], edges[1::2], strict=True):
+        peak = lo + int(np.argmax(z[lo:hi]))
+        i = peak + window  # first block after the step
+        t = 0.5 * float(run.time_s[i - 1] + run.time_s[i])
+        out.append(
+            QualityIssue(
+                "step",
+                f"axis {axis}: the static output steps by {float(jump[peak]):+.6g} "
+                f"(robust z {float(z[peak]):.3g}) at t = {t:.6g} s: the sensor moved "
+                "during the run; cut the run there or re-log it",
+                run=run.label,
+                channel=axis,
+                time_s=t,
+            )
+        )
+    return out
+
+
+def _check_temperature(
+    session: Session, window_c: tuple[float, float], bin_width_c: float, min_bins: int
+) -> list[QualityIssue]:
+    lo_c, hi_c = float(window_c[0]), float(window_c[1])
+    temps = [r.temperature_c[np.isfinite(r.temperature_c)] for r in session.runs]
+    temps = [t for t in temps if t.size]
+    out: list[QualityIssue] = []
+    if not temps:
+        return [QualityIssue("temperature", "no finite temperature in any run")]
+    seen_lo = min(float(t.min()) for t in temps)
+    seen_hi = max(float(t.max()) for t in temps)
+    if seen_lo > lo_c + bin_width_c or seen_hi < hi_c - bin_width_c:
+        out.append(
+            QualityIssue(
+                "temperature",
+                f"the logged temperature covers {seen_lo:.4g}…{seen_hi:.4g} °C but the "
+                f"analysis window is {lo_c:g}…{hi_c:g} °C: log sweeps that reach "
+                f"{lo_c:g} and {hi_c:g} °C, or narrow window_c to "
+                f"({max(lo_c, seen_lo):.4g}, {min(hi_c, seen_hi):.4g})",
+            )
+        )
+    n_bins = max(1, math.ceil((hi_c - lo_c) / bin_width_c))
+    edges = lo_c + bin_width_c * np.arange(n_bins + 1)
+
+    def occupied(runs: list[Run]) -> NDArray[np.bool_]:
+        hit = np.zeros(n_bins, dtype=bool)
+        for r in runs:
+            t = r.temperature_c[(r.temperature_c >= lo_c) & (r.temperature_c < edges[-1])]
+            k = np.clip(((t - lo_c) / bin_width_c).astype(np.int64), 0, n_bins - 1)
+            hit[k] = True
+        return hit
+
+    for a, axis in enumerate(AXES):
+        plus = [r for r in session.runs if r.gravity_g[a] > 0 and len(r)]
+        minus = [r for r in session.runs if r.gravity_g[a] < 0 and len(r)]
+        if not plus or not minus:
+            continue
+        both = int(np.count_nonzero(occupied(plus) & occupied(minus)))
+        if both < min_bins:
+            out.append(
+                QualityIssue(
+                    "temperature",
+                    f"axis {axis}: only {both} temperature bin(s) of {bin_width_c:g} °C in "
+                    f"{lo_c:g}…{hi_c:g} °C hold both O{axis.upper()}+ and O{axis.upper()}- "
+                    f"data; a fit needs at least {min_bins}: log both orientations over a "
+                    f"sweep of at least {min_bins * bin_width_c:g} °C inside the window, "
+                    "or use narrower bins",
+                    channel=axis,
+                    count=both,
+                )
+            )
+    return out
