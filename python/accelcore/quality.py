@@ -141,7 +141,7 @@ def check_session(
             y = np.asarray(run.output[:, a], dtype=np.float64)
             issues += _check_outliers(run, axis, y, outlier_z, outlier_window)
             issues += _check_steps(run, axis, y, step_z, step_window)
-    if total_nonfinite and sum(1 for r in session.runs if r.stats.n_skipped_nonfinite) > 1:
+    if total_nonfinite:
         issues.append(
             QualityIssue(
                 "nonfinite",

@@ -574,7 +574,8 @@ fn rotate_block_in(
                 continue;
             }
             let rii = r_row[0];
-            let d_new = xi.mul_add(xi, d);
+            // Plain multiply-add: `mul_add` is a libm call on baseline x86-64 (no FMA).
+            let d_new = xi * xi + d;
             let r = if d_new.is_normal() {
                 d = d_new;
                 d_new.sqrt()
@@ -595,7 +596,7 @@ fn rotate_block_in(
         diag_sq[i] = d;
     }
     for row in block.chunks_exact(width) {
-        *rss = row[p].mul_add(row[p], *rss);
+        *rss += row[p] * row[p];
     }
 }
 
