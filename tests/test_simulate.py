@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 import time
+import tomllib
 import types
 from dataclasses import dataclass
 from pathlib import Path
@@ -11,7 +12,6 @@ from typing import TypedDict
 
 import numpy as np
 import pytest
-import tomllib
 
 try:  # the package __init__ needs the compiled extension ...
     import accelcore  # noqa: F401

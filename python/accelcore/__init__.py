@@ -11,6 +11,7 @@ from __future__ import annotations
 from accelcore import core, datasheets
 from accelcore._accelcore import __version__
 from accelcore.calibration import Calibration, calibrate
+from accelcore.diagnosis import Diagnosis, diagnose
 from accelcore.errors import (
     AccelcoreError,
     AccelcoreIOError,
@@ -31,6 +32,7 @@ __all__ = [
     "AccelcoreError",
     "AccelcoreIOError",
     "Calibration",
+    "Diagnosis",
     "CalibrationFileError",
     "IncompatibleError",
     "InsufficientDataError",
@@ -47,5 +49,6 @@ __all__ = [
     "calibrate",
     "core",
     "datasheets",
+    "diagnose",
     "load_session",
 ]

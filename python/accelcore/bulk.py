@@ -133,12 +133,7 @@ def _fleet_rows(rel: str, cal: Any, diag: Any) -> list[dict[str, Any]]:
             sheet = datasheets.load(cal.sensor)
         except (KeyError, ValueError):
             sheet = None
-    effects = ""
-    before = after = math.nan
-    if diag is not None:
-        summary = diag.summary_figures()
-        effects = ";".join(summary["effects"])
-        before, after = summary["heldout_rms_mg_before"], summary["heldout_rms_mg_after"]
+    effects = ";".join(diag.effects) if diag is not None else ""
     rows = []
     for axis in cal.axes:
         s = cal.axis(axis)
@@ -173,8 +168,12 @@ def _fleet_rows(rel: str, cal: Any, diag: Any) -> list[dict[str, Any]]:
                 ),
                 "not_identified": ";".join(not_identified),
                 "effects": effects,
-                "heldout_rms_mg_before": before,
-                "heldout_rms_mg_after": after,
+                "heldout_rms_mg_before": (
+                    diag.steps[0].rms_out_axis_mg[axis] if diag is not None else math.nan
+                ),
+                "heldout_rms_mg_after": (
+                    diag.steps[-1].rms_out_axis_mg[axis] if diag is not None else math.nan
+                ),
             }
         )
     return rows
@@ -382,7 +381,9 @@ def _run_dask(
     force: bool,
     on_done: Callable[[SessionOutcome], None],
 ) -> list[SessionOutcome]:
-    from distributed import as_completed as dask_completed
+    import distributed
+
+    dask_completed: Any = distributed.as_completed  # untyped package
 
     futures = [
         client.submit(
@@ -451,9 +452,10 @@ def bulk(
     bar = _Progress(len(sessions), stream, progress)
     own_client = None
     if scheduler is not None and client is None:
-        from distributed import Client
+        import distributed
 
-        client = own_client = Client(scheduler)
+        make_client: Any = distributed.Client  # untyped package
+        client = own_client = make_client(scheduler)
     try:
         if client is not None:
             outcomes = _run_dask(client, archive_p, sessions, out_p, diagnose, force, bar.update)

@@ -384,6 +384,32 @@ def _cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def _cmd_bulk(args: argparse.Namespace, out: TextIO) -> int:
+    from accelcore.bulk import bulk
+
+    if args.jobs is not None and args.jobs < 1:
+        raise _UsageError("--jobs must be >= 1")
+    result = bulk(
+        args.archive,
+        args.output,
+        jobs=args.jobs,
+        scheduler=args.scheduler,
+        diagnose=not args.no_diagnose,
+        force=args.force,
+        progress=not args.quiet,
+    )
+    n_failed = len(result.failures)
+    print(
+        f"{result.n_sessions} sessions ({result.n_reused} up to date, {n_failed} failed) in "
+        f"{result.elapsed_s:.1f} s: {Path(args.output) / 'fleet.csv'}, fleet.parquet, "
+        "failures.csv",
+        file=out,
+    )
+    for row in result.failures.itertuples():
+        print(f"accelcore bulk: failed: {row.session} ({row.stage}): {row.reason}", file=sys.stderr)
+    return 1 if n_failed else 0
+
+
 def _cmd_simulate(args: argparse.Namespace, out: TextIO) -> int:
     from accelcore import datasheets, simulate
 
@@ -468,6 +494,13 @@ _EPILOGS = {
   The output holds the time and temperature columns, then x_g, y_g, z_g.""",
     "diagnose": """example:
   accelcore diagnose examples/adxl335-demo/generated --json diagnosis.json""",
+    "bulk": """example:
+  accelcore bulk /data/chamber-archive -o /data/calibrations --jobs 2
+  accelcore bulk /data/chamber-archive -o /data/calibrations --scheduler tcp://10.0.0.5:8786
+
+  Writes OUT/<session>/calibration.json and diagnosis.json, OUT/fleet.csv,
+  OUT/fleet.parquet and OUT/failures.csv. A rerun redoes only sessions whose
+  inputs changed (or that failed). Exit status 1 when any session failed.""",
     "simulate": """example:
   accelcore simulate /tmp/adxl335-session --sensor ADXL335 --seed 7 --duration-h 2""",
     "bench": """example:
@@ -556,6 +589,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("session", metavar="SESSION", help="session folder (holding session.toml)")
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
     p.set_defaults(func=_cmd_diagnose, data_path="session")
+
+    p = add("bulk", "calibrate and diagnose every session under an archive folder")
+    p.add_argument("archive", metavar="ARCHIVE", help="folder searched for sessions (any depth)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="output folder")
+    p.add_argument("--jobs", type=int, metavar="N", help="worker processes (default: all cores)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster (tcp://HOST:PORT)")
+    p.add_argument("--no-diagnose", action="store_true", help="calibrate only")
+    p.add_argument("--force", action="store_true", help="redo sessions that are up to date")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(func=_cmd_bulk, data_path="archive")
 
     p = add("simulate", "write a simulated session with known truth")
     p.add_argument("out", metavar="OUT", help="session folder to create (must be empty)")

@@ -87,6 +87,7 @@ def check_session(
     rate_tolerance: float = 0.1,
     clip_fraction: float = 0.002,
     clip_min_samples: int = 20,
+    clip_min_blocks: int = 3,
     outlier_z: float = 8.0,
     outlier_window: int = 9,
     step_z: float = 12.0,
@@ -104,15 +105,17 @@ def check_session(
         From :func:`accelcore.load_session` or :meth:`Session.from_arrays`.
     rate_tolerance : float, default 0.1
         Relative difference of the mean raw rate from ``rate_hz`` that is reported.
-    clip_fraction, clip_min_samples : float, int
+    clip_fraction, clip_min_samples, clip_min_blocks : float, int, int
         A channel is reported as clipped when at least ``clip_min_samples`` and
-        ``clip_fraction`` of its raw rows sit exactly at its minimum or maximum.
+        ``clip_fraction`` of its raw rows sit exactly at its minimum or maximum,
+        and at least ``clip_min_blocks`` decimated blocks lie wholly on that value.
     outlier_z, outlier_window : float, int
         A decimated block whose robust z-score against a running median of
         ``outlier_window`` blocks exceeds ``outlier_z`` is an outlier.
     step_z, step_window : float, int
-        A step is a difference between the medians of the ``step_window``
-        blocks after and before a point whose robust z-score exceeds ``step_z``.
+        A step is a jump between the medians of the ``step_window`` blocks
+        after and before a point, less the local drift (from the neighbouring
+        windows), whose robust z-score exceeds ``step_z``.
     window_c : (float, float) or None, default (0, 60)
         Analysis window (as in :func:`accelcore.calibrate`); None skips the
         temperature checks.
@@ -134,7 +137,7 @@ def check_session(
         issues += _check_rate_and_gaps(run, session.rate_hz, rate_tolerance)
         total_nonfinite += run.stats.n_skipped_nonfinite
         issues += _check_counts(run)
-        issues += _check_clipping(run, clip_fraction, clip_min_samples)
+        issues += _check_clipping(run, clip_fraction, clip_min_samples, clip_min_blocks)
         for a, axis in enumerate(AXES):
             if len(run) == 0:
                 continue
@@ -223,10 +226,12 @@ def _channel_names(run: Run) -> list[str]:
     return list(AXES) + list(run.extras)
 
 
-def _check_clipping(run: Run, fraction: float, min_samples: int) -> list[QualityIssue]:
+def _check_clipping(
+    run: Run, fraction: float, min_samples: int, min_blocks: int
+) -> list[QualityIssue]:
     stats = run.stats
     out: list[QualityIssue] = []
-    if stats.n_rows == 0 or stats.n_at_min.size == 0:
+    if stats.n_rows == 0 or stats.n_at_min.size == 0 or len(run) == 0:
         return out
     threshold = max(float(min_samples), fraction * stats.n_rows)
     names = _channel_names(run)
@@ -238,7 +243,10 @@ def _check_clipping(run: Run, fraction: float, min_samples: int) -> list[Quality
             ("minimum", lo, int(stats.n_at_min[c])),
             ("maximum", hi, int(stats.n_at_max[c])),
         ):
-            if n >= threshold:
+            # A pile-up at the extreme, and whole blocks sitting on it: a rail, not
+            # the tail of quantised noise.
+            on_rail = np.abs(run.output[:, c] - value) <= 1e-12 * max(1.0, abs(value))
+            if n >= threshold and int(np.count_nonzero(on_rail)) >= min_blocks:
                 out.append(
                     QualityIssue(
                         "clipping",
@@ -311,7 +319,7 @@ def _check_steps(
 ) -> list[QualityIssue]:
     """Find persistent level changes: median after minus median before each point."""
     n = y.shape[0]
-    if n < 4 * window:
+    if n < 5 * window:
         return []
     # The noise of one block, from first differences (insensitive to slow drift and
     # to a few steps); its floor is the output resolution.
@@ -322,31 +330,47 @@ def _check_steps(
         sigma = max(sigma, float(nonzero.min()))
     if sigma == 0.0:
         return []
-    medians = np.empty(n - window + 1)
+    w = window
+    medians = np.empty(n - w + 1)  # medians[j] = median(y[j : j + w])
     for start in range(0, medians.shape[0], _CHUNK):
         stop = min(start + _CHUNK, medians.shape[0])
-        view = sliding_window_view(y[start : stop + window - 1], window)
+        view = sliding_window_view(y[start : stop + w - 1], w)
         medians[start:stop] = np.median(view, axis=1)
-    # jump[i]: median of y[i : i + w] minus median of y[i - w : i], for i in [w, n - w].
-    jump = medians[window:] - medians[: medians.shape[0] - window]
-    # Standard error of the difference of two medians of w normal samples.
-    se = math.sqrt(math.pi / 2) * sigma * math.sqrt(2.0 / window)
+    # For a boundary i (first block after a possible step), with the window medians
+    # M-2, M-1 before and M0, M1 after it: D = (M0 - M-1) - ((M1 - M0) + (M-1 - M-2)) / 2,
+    # the jump minus the local drift. D = h for a step h and 0 for a linear drift
+    # (temperature ramps), so only abrupt changes count.
+    m_b2, m_b1 = medians[: -3 * w], medians[w : -2 * w]
+    m_a0, m_a1 = medians[2 * w : -w], medians[3 * w :]
+    jump = 1.5 * (m_a0 - m_b1) - 0.5 * (m_a1 - m_b2)  # index k <-> boundary i = k + 2w
+    # Standard error: a median of w normal samples has sd sqrt(pi/2) sigma / sqrt(w);
+    # D weighs four independent medians by 1.5, 1.5, 0.5, 0.5.
+    se = math.sqrt(5.0) * math.sqrt(math.pi / 2) * sigma / math.sqrt(w)
     z = np.abs(jump) / se
+    # Only where the 4w blocks are contiguous in time: across a gap, drift is a jump.
+    dt = np.diff(np.asarray(run.time_s, dtype=np.float64))
+    if dt.size:
+        gap = np.concatenate([[0], np.cumsum(dt > 1.5 * float(np.median(dt)))])
+        k = np.arange(z.shape[0])
+        z[gap[k + 4 * w - 1] != gap[k]] = 0.0
     out: list[QualityIssue] = []
-    above = z > z_min
-    if not above.any():
-        return out
-    # One finding per run of consecutive points above the threshold: its peak.
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], above.astype(np.int8), [0]])))
-    for lo, hi in zip(edges[::2], edges[1::2], strict=True):
-        peak = lo + int(np.argmax(z[lo:hi]))
-        i = peak + window  # first block after the step
+    # Peaks above the threshold, strongest first; a kept peak masks +-2w around it
+    # (the filter's side lobes).
+    candidates = np.flatnonzero(z > z_min)
+    kept: list[int] = []
+    for k in candidates[np.argsort(-z[candidates], kind="stable")]:
+        if all(abs(int(k) - j) > 2 * w for j in kept):
+            kept.append(int(k))
+        if len(kept) == 10:
+            break
+    for k in sorted(kept):
+        i = k + 2 * w
         t = 0.5 * float(run.time_s[i - 1] + run.time_s[i])
         out.append(
             QualityIssue(
                 "step",
-                f"axis {axis}: the static output steps by {float(jump[peak]):+.6g} "
-                f"(robust z {float(z[peak]):.3g}) at t = {t:.6g} s: the sensor moved "
+                f"axis {axis}: the static output steps by {float(jump[k]):+.6g} "
+                f"(robust z {float(z[k]):.3g}) at t = {t:.6g} s: the sensor moved "
                 "during the run; cut the run there or re-log it",
                 run=run.label,
                 channel=axis,

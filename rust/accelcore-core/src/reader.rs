@@ -235,7 +235,9 @@ fn map_columns(path: &str, header: &[String], format: &CsvFormat) -> Result<Colu
                 .join(", ")
         );
         if header.len() > MAX_NAMES_SHOWN {
-            reason.push_str(&format!(", ... ({} in all)", header.len()));
+            reason.push_str(", ... (");
+            reason.push_str(&header.len().to_string());
+            reason.push_str(" in all)");
         }
         if header.len() == 1 {
             for (d, name) in [(b',', "','"), (b'\t', "tab"), (b';', "';'")] {

@@ -50,13 +50,13 @@ fn dimension_error(obj: &Bound<'_, PyAny>, ndim: usize, what: &'static str, err:
 /// A 1-D float64 input, with a `ShapeError` naming `what` for another dimensionality.
 pub(crate) fn array1<'py>(obj: &Bound<'py, PyAny>, what: &'static str) -> PyResult<In1<'py>> {
     obj.extract::<In1<'py>>()
-        .map_err(|e| dimension_error(obj, 1, what, e.into()))
+        .map_err(|e| dimension_error(obj, 1, what, e))
 }
 
 /// A 2-D float64 input, with a `ShapeError` naming `what` for another dimensionality.
 pub(crate) fn array2<'py>(obj: &Bound<'py, PyAny>, what: &'static str) -> PyResult<In2<'py>> {
     obj.extract::<In2<'py>>()
-        .map_err(|e| dimension_error(obj, 2, what, e.into()))
+        .map_err(|e| dimension_error(obj, 2, what, e))
 }
 
 /// A count argument: negative values are a `ParameterError`, not an `OverflowError`.
