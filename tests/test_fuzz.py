@@ -24,7 +24,6 @@ from hypothesis import strategies as st
 import accelcore
 from accelcore import simulate
 from accelcore._accelcore import read_run
-
 from test_reliability import FUZZ_FORMATS
 
 HEADER = b"time_s,temp_c,x,y,z\n"
@@ -41,7 +40,12 @@ def _real_log() -> bytes:
 REAL_LOG = _real_log()
 with tempfile.TemporaryDirectory() as _tmp:
     _sim = simulate.session(
-        Path(_tmp) / "s", "ADXL335", seed=1, duration_h=0.01, soak_min=0.1, orientations=["OZ+", "OZ-"]
+        Path(_tmp) / "s",
+        "ADXL335",
+        seed=1,
+        duration_h=0.01,
+        soak_min=0.1,
+        orientations=["OZ+", "OZ-"],
     )
     REAL_TOML = (_sim.path / "session.toml").read_bytes()
     RUN_FILES = [r.file for r in _sim.runs]
@@ -77,7 +81,7 @@ def _must_be_ok_or_accelcore_error(call: Any, *args: Any, **kwargs: Any) -> None
         call(*args, **kwargs)
     except accelcore.AccelcoreError:
         pass
-    except BaseException as exc:  # noqa: BLE001 - catches PanicException too
+    except BaseException as exc:
         if isinstance(exc, KeyboardInterrupt):
             raise
         pytest.fail(f"{type(exc).__module__}.{type(exc).__qualname__}: {exc!r}")
@@ -158,6 +162,13 @@ def test_mutated_session_folder(toml: bytes, logs: list[bytes]) -> None:
         _must_be_ok_or_accelcore_error(accelcore.load_session, folder)
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="session.py lets TypeError out for session.toml values of the wrong type "
+    "(columns not a table, delimiter/time_unit a list or table, a [[run]] entry not a "
+    "table, a column name not a string): reported to the lead; remove this mark once "
+    "load_session checks the types",
+)
 @given(
     value=st.one_of(
         st.integers(),
@@ -168,7 +179,17 @@ def test_mutated_session_folder(toml: bytes, logs: list[bytes]) -> None:
         st.dictionaries(st.sampled_from(["x", "time", "file"]), st.text(max_size=3), max_size=2),
     ),
     key=st.sampled_from(
-        ["format", "units", "rate_hz", "delimiter", "time_unit", "columns", "sensor", "serial", "run"]
+        [
+            "format",
+            "units",
+            "rate_hz",
+            "delimiter",
+            "time_unit",
+            "columns",
+            "sensor",
+            "serial",
+            "run",
+        ]
     ),
 )
 def test_session_toml_values_of_any_type(value: object, key: str) -> None:

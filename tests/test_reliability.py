@@ -97,7 +97,7 @@ def test_nonfinite_samples_are_skipped_and_counted_per_run_and_in_all(
     assert any("5 rows skipped in all runs" in str(w.message) for w in record)
     total = [i for i in issues if i.kind == "nonfinite" and i.run is None]
     assert [i.count for i in total] == [5]
-    per_run = {i.run: i.count for i in issues if i.kind == "nonfinite" and i.run}
+    per_run = {i.run: i.count or 0 for i in issues if i.kind == "nonfinite" and i.run}
     assert sorted(per_run.values()) == [2, 3]
 
 
@@ -115,7 +115,11 @@ def test_nonfinite_counted_for_in_memory_sessions() -> None:
 @pytest.mark.parametrize(
     ("old", "new", "match"),
     [
-        ("rate_hz = 20.0", "rate_hz = 10.0", r"mean sample rate 20 Hz differs from rate_hz = 10 Hz"),
+        (
+            "rate_hz = 20.0",
+            "rate_hz = 10.0",
+            r"mean sample rate 20 Hz differs from rate_hz = 10 Hz",
+        ),
         ("rate_hz = 20.0", "rate_hz = 40.0", r"differs from rate_hz = 40 Hz .*time_unit is wrong"),
     ],
 )
@@ -202,7 +206,9 @@ def test_sensor_moved_is_detected_with_its_time(clean_session: Path, tmp_path: P
 
 def test_temperature_not_covering_the_window_says_what_would_fix_it(tmp_path: Path) -> None:
     folder = tmp_path / "warm"
-    simulate.session(folder, "ADXL335", seed=4, duration_h=0.1, soak_min=1.0, t_start_c=20.0, t_end_c=35.0)
+    simulate.session(
+        folder, "ADXL335", seed=4, duration_h=0.1, soak_min=1.0, t_start_c=20.0, t_end_c=35.0
+    )
     issues = check_session(accelcore.load_session(folder), warn=False)
     assert _kinds(issues) == ["temperature"]
     message = issues[0].message
@@ -212,7 +218,9 @@ def test_temperature_not_covering_the_window_says_what_would_fix_it(tmp_path: Pa
 
 def test_too_few_temperature_bins_says_what_would_fix_it(tmp_path: Path) -> None:
     folder = tmp_path / "flat"
-    simulate.session(folder, "ADXL335", seed=5, duration_h=0.05, soak_min=1.0, t_start_c=25.0, t_end_c=25.6)
+    simulate.session(
+        folder, "ADXL335", seed=5, duration_h=0.05, soak_min=1.0, t_start_c=25.0, t_end_c=25.6
+    )
     issues = check_session(accelcore.load_session(folder), warn=False, window_c=(25.0, 26.0))
     few = [i for i in issues if i.kind == "temperature" and i.channel]
     assert [i.channel for i in few] == ["x", "y", "z"]
@@ -246,7 +254,13 @@ def test_every_error_class_is_an_accelcore_error() -> None:
 # The reader configurations of fuzz/formats.rs (the first byte of an input picks one).
 FUZZ_FORMATS: list[dict[str, object]] = [
     {},
-    {"delimiter": ";", "keep_extra_columns": False, "time_scale_to_s": 1e-3, "factor": 1, "min_count": 2},
+    {
+        "delimiter": ";",
+        "keep_extra_columns": False,
+        "time_scale_to_s": 1e-3,
+        "factor": 1,
+        "min_count": 2,
+    },
     {"delimiter": "\t", "channel_columns": ["x"], "factor": 3, "rate_hz": 1e-300},
     {
         "time_column": "t",

@@ -410,6 +410,36 @@ def _cmd_bulk(args: argparse.Namespace, out: TextIO) -> int:
     return 1 if n_failed else 0
 
 
+def _cmd_report(args: argparse.Namespace, out: TextIO) -> int:
+    try:
+        import matplotlib
+
+        report = importlib.import_module("accelcore.report")
+    except ImportError as exc:
+        raise _UsageError(f"reports need matplotlib: pip install accelcore[plot] ({exc})") from exc
+    matplotlib.use("Agg")  # files only, never a window
+    src = Path(args.path)
+    try:
+        if report.is_bulk_output(src):
+            page = report.fleet_report(src, args.output)
+        elif (src / "session.toml").is_file():
+            if args.output is None:
+                raise _UsageError("a session report needs -o DIR")
+            page = report.session_report(src, args.output)
+        elif not src.is_dir():
+            raise CliDataError(f"{src}: no such folder")
+        else:
+            raise CliDataError(
+                f"{src}: neither a session folder (session.toml) nor a bulk output (fleet.csv)"
+            )
+    except ValueError as exc:
+        if isinstance(exc, AccelcoreError):
+            raise
+        raise CliDataError(f"{src}: {exc}") from exc
+    print(f"report written to {page}", file=out)
+    return 0
+
+
 def _cmd_simulate(args: argparse.Namespace, out: TextIO) -> int:
     from accelcore import datasheets, simulate
 
@@ -501,6 +531,15 @@ _EPILOGS = {
   Writes OUT/<session>/calibration.json and diagnosis.json, OUT/fleet.csv,
   OUT/fleet.parquet and OUT/failures.csv. A rerun redoes only sessions whose
   inputs changed (or that failed). Exit status 1 when any session failed.""",
+    "report": """example:
+  accelcore report examples/adxl335-demo/generated -o /tmp/adxl335-report
+  accelcore report /data/calibrations            (a bulk output: fleet report)
+
+  Writes DIR/index.html, one self-contained page (figures embedded). On a
+  session: datasheet comparison, the paper's Figures 4, 6 and 7, diagnosis
+  table and residual plots. On a bulk output (a folder holding fleet.csv):
+  temperature coefficients across parts against the datasheet limits, the
+  fleet table and the failures; -o defaults to that folder.""",
     "simulate": """example:
   accelcore simulate /tmp/adxl335-session --sensor ADXL335 --seed 7 --duration-h 2""",
     "bench": """example:
@@ -599,6 +638,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="redo sessions that are up to date")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=_cmd_bulk, data_path="archive")
+
+    p = add("report", "write an HTML report of a session or of a bulk output")
+    p.add_argument(
+        "path", metavar="SESSION|OUT", help="session folder, or output folder of accelcore bulk"
+    )
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="DIR",
+        help="folder for index.html (required for a session; default for a bulk output: OUT)",
+    )
+    p.set_defaults(func=_cmd_report, data_path="path")
 
     p = add("simulate", "write a simulated session with known truth")
     p.add_argument("out", metavar="OUT", help="session folder to create (must be empty)")

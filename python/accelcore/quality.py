@@ -351,8 +351,8 @@ def _check_steps(
     dt = np.diff(np.asarray(run.time_s, dtype=np.float64))
     if dt.size:
         gap = np.concatenate([[0], np.cumsum(dt > 1.5 * float(np.median(dt)))])
-        k = np.arange(z.shape[0])
-        z[gap[k + 4 * w - 1] != gap[k]] = 0.0
+        first = np.arange(z.shape[0])
+        z[gap[first + 4 * w - 1] != gap[first]] = 0.0
     out: list[QualityIssue] = []
     # Peaks above the threshold, strongest first; a kept peak masks +-2w around it
     # (the filter's side lobes).
