@@ -1,7 +1,7 @@
 """The ``accelcore`` command line (also ``python -m accelcore``).
 
-Subcommands: ``calibrate``, ``compensate``, ``diagnose``, ``simulate``,
-``bench`` and ``demo``; ``accelcore COMMAND --help`` shows each one's options
+Subcommands: ``calibrate``, ``compensate``, ``diagnose``, ``report``, ``bulk``,
+``simulate``, ``bench`` and ``demo``; ``accelcore COMMAND --help`` shows each one's options
 and an example. Exit status: 0 on success, 1 on a data error (a one-line
 reason naming the file goes to stderr), 2 on a usage error.
 
