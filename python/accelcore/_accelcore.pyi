@@ -262,8 +262,7 @@ class LeastSquares:
     :meth:`merge` is exact algebra. Non-finite input raises NonFiniteError.
     """
 
-    def __new__(
-        cls, n_columns: int, *, column_names: list[str] | None = None) -> LeastSquares: ...
+    def __new__(cls, n_columns: int, *, column_names: list[str] | None = None) -> LeastSquares: ...
     def push(
         self, design: ArrayLike, response: ArrayLike, weights: ArrayLike | None = None
     ) -> None:
