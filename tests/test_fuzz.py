@@ -162,13 +162,6 @@ def test_mutated_session_folder(toml: bytes, logs: list[bytes]) -> None:
         _must_be_ok_or_accelcore_error(accelcore.load_session, folder)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="session.py lets TypeError out for session.toml values of the wrong type "
-    "(columns not a table, delimiter/time_unit a list or table, a [[run]] entry not a "
-    "table, a column name not a string): reported to the lead; remove this mark once "
-    "load_session checks the types",
-)
 @given(
     value=st.one_of(
         st.integers(),

@@ -353,7 +353,7 @@ def _make_run(
 
 
 def _check_units(units: object, where: str) -> str:
-    if units not in UNITS:
+    if not isinstance(units, str) or units not in UNITS:
         raise SessionFormatError(f"{where}: units must be one of {', '.join(UNITS)}, got {units!r}")
     return str(units)
 
@@ -415,14 +415,22 @@ def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: in
     if not isinstance(rate_hz, (int, float)) or not math.isfinite(rate_hz) or rate_hz <= 0:
         raise SessionFormatError(f"{where}: rate_hz must be a positive number, got {rate_hz!r}")
     delimiter = meta.get("delimiter", ",")
-    if delimiter not in DELIMITERS:
+    if not isinstance(delimiter, str) or delimiter not in DELIMITERS:
         raise SessionFormatError(f"{where}: delimiter must be ',', '\\t' or ';', got {delimiter!r}")
     time_unit = meta.get("time_unit", "s")
-    if time_unit not in TIME_UNITS:
+    if not isinstance(time_unit, str) or time_unit not in TIME_UNITS:
         raise SessionFormatError(
             f"{where}: time_unit must be one of {', '.join(TIME_UNITS)}, got {time_unit!r}"
         )
-    columns = {**DEFAULT_COLUMNS, **meta.get("columns", {})}
+    given_columns = meta.get("columns", {})
+    if not isinstance(given_columns, dict):
+        raise SessionFormatError(f"{where}: [columns] must be a table of column names")
+    bad = [k for k, v in given_columns.items() if not isinstance(v, str)]
+    if bad:
+        raise SessionFormatError(
+            f"{where}: [columns] values must be strings (column names): {', '.join(bad)}"
+        )
+    columns = {**DEFAULT_COLUMNS, **given_columns}
     unknown = set(columns) - set(DEFAULT_COLUMNS)
     if unknown:
         raise SessionFormatError(
@@ -433,6 +441,8 @@ def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: in
         raise SessionFormatError(f"{where}: no [[run]] table; a session needs at least one run")
     runs = []
     for i, table in enumerate(run_tables, start=1):
+        if not isinstance(table, dict):
+            raise SessionFormatError(f"{where}: [[run]] #{i} must be a table")
         for key in ("file", "orientation"):
             if key not in table:
                 raise SessionFormatError(f"{where}: [[run]] #{i} is missing required key '{key}'")
