@@ -5,11 +5,13 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from accelcore.bench import Context, Table
-from benches import end_to_end, kernels, memory, reading
+from benches import bulk, diagnosis, end_to_end, kernels, memory, reading
 
 CASES: dict[str, Callable[[Context], list[Table]]] = {
     "kernels": kernels.run,
     "reading": reading.run,
     "end_to_end": end_to_end.run,
+    "diagnosis": diagnosis.run,
+    "bulk": bulk.run,
     "memory": memory.run,
 }

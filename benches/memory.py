@@ -1,4 +1,4 @@
-"""Case (d): peak RSS of the fused pipeline over a log streamed in chunks, per subprocess.
+"""Case (f): peak RSS of the fused pipeline over a log streamed in chunks, per subprocess.
 
 Run as ``python -m benches.memory N CHUNK``: generates ``N`` samples chunk by
 chunk (never whole), pushes them through ``FusedPipeline`` and prints JSON with
@@ -58,7 +58,7 @@ def run(ctx: Context) -> list[Table]:
     if ctx.large:
         sizes.append(("1e9 samples", 1_000_000_000))
         chunk = 1 << 20
-    table = Table("(d) memory: FusedPipeline over a log generated and pushed chunk by chunk")
+    table = Table("(f) memory: FusedPipeline over a log generated and pushed chunk by chunk")
     for label, n in sizes:
         out = subprocess.run(
             [sys.executable, "-m", "benches.memory", str(n), str(chunk)],

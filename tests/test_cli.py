@@ -162,7 +162,8 @@ def test_calibrate_json_schema(sim: simulate.SimulatedSession, tmp_path: Path) -
     assert doc["command"] == "calibrate"
     assert doc["accelcore_version"] == accelcore.__version__
     result = doc["result"]
-    assert set(result) == {"session", "saved_to", "summary", "datasheet", "calibration"}
+    assert set(result) == {"session", "saved_to", "summary", "datasheet", "calibration", "quality"}
+    assert result["quality"] == []  # clean simulated data: no data-quality finding
     assert result["session"] == str(sim.path) and result["saved_to"] == str(saved)
     assert [row["axis"] for row in result["summary"]] == ["x", "y", "z"]
     assert {"offset_tc_mg_per_c", "sensitivity_tc_pct_per_c_se"} <= set(result["summary"][0])
@@ -424,7 +425,7 @@ def test_diagnose(sim: simulate.SimulatedSession, tmp_path: Path) -> None:
     assert out.strip()
     doc = strict_json(target)
     assert doc["schema"] == "accelcore-cli/1" and doc["command"] == "diagnose"
-    assert set(doc["result"]) == {"session", "diagnosis"}
+    assert set(doc["result"]) == {"session", "diagnosis", "quality"}
 
 
 def test_diagnose_without_the_module_exits_2(
@@ -474,6 +475,7 @@ def test_diagnose_plumbing_with_a_stand_in_module(
     assert doc["result"] == {
         "session": str(sim.path),
         "diagnosis": {"effects": ["curvature"], "rms_mg": [None, 0.5]},
+        "quality": [],
     }
     # The demo ends with the diagnosis table, reusing its joint calibration.
     status, out, err = run_main("demo", "--dir", tmp_path / "demo")

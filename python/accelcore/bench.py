@@ -45,8 +45,8 @@ class Row:
     n: int
     wall_s: float
     cpu_s: float
-    unit: str  # "samples" or "MB"
-    amount: float  # samples or MB processed per repetition
+    unit: str  # "samples", "MB" or a count ("fits", "sess")
+    amount: float  # samples, MB or counted items processed per repetition
     peak_mb: float | None = None
     baseline: str | None = None
     ratio: float | None = None
@@ -56,7 +56,7 @@ class Row:
 
     @property
     def rate(self) -> float:
-        """Throughput per wall-clock second (samples/s or MB/s)."""
+        """Throughput per wall-clock second (samples/s, MB/s, ...)."""
         return self.amount / self.wall_s if self.wall_s > 0 else float("nan")
 
     @property
@@ -204,6 +204,15 @@ def format_table(table: Table) -> str:
     return "\n".join(out)
 
 
+def proc_loadavg() -> str | None:
+    """Return the raw line of ``/proc/loadavg`` (1, 5, 15 min, running/total tasks, last pid)."""
+    try:
+        with open("/proc/loadavg") as f:
+            return f.read().strip()
+    except OSError:
+        return None
+
+
 def machine() -> dict[str, Any]:
     """CPU model, core count, load and library versions."""
     cpu = platform.processor() or "unknown"
@@ -232,6 +241,7 @@ def machine() -> dict[str, Any]:
         "cpu_model": cpu,
         "cores": os.cpu_count(),
         "load_average": list(os.getloadavg()),
+        "proc_loadavg": proc_loadavg(),
         "platform": platform.platform(),
         "accelcore": accelcore.__version__,
         **versions,
@@ -246,8 +256,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="small sizes, one repetition (smoke)")
     p.add_argument(
         "--cases",
-        default="kernels,reading,end_to_end,memory",
-        help="comma-separated subset of: kernels, reading, end_to_end, memory",
+        default="kernels,reading,end_to_end,diagnosis,bulk,memory",
+        help="comma-separated subset of: kernels, reading, end_to_end, diagnosis, bulk, memory",
     )
     p.add_argument(
         "--output",
@@ -257,6 +267,14 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--workdir", type=Path, default=None, help="where to write generated logs")
     return p
+
+
+def _default_output() -> Path:
+    """``benches/results/<date>-<host>.json``; ``<date>-<host>-<HHMMSS>.json`` if taken."""
+    now = dt.datetime.now()
+    folder, host = REPO / "benches" / "results", socket.gethostname()
+    out = folder / f"{now.date().isoformat()}-{host}.json"
+    return out if not out.exists() else out.with_name(f"{out.stem}-{now:%H%M%S}.json")
 
 
 def _load_cases() -> Any:
@@ -294,6 +312,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     started = time.perf_counter()
     tables: list[Table] = []
+    case_elapsed: dict[str, float] = {}
     with tempfile.TemporaryDirectory(prefix="accelcore-bench-") as tmp:
         ctx = Context(large=args.large, quick=args.quick, workdir=args.workdir or Path(tmp))
         for case in wanted:
@@ -302,22 +321,24 @@ def main(argv: Sequence[str] | None = None) -> int:
                 tables.append(table)
                 print()
                 print(format_table(table), flush=True)
-            print(f"   ({case}: {time.perf_counter() - t0:.1f} s)")
+            case_elapsed[case] = time.perf_counter() - t0
+            print(f"   ({case}: {case_elapsed[case]:.1f} s, load {os.getloadavg()[0]:.2f})")
     elapsed = time.perf_counter() - started
-    print(f"\ntotal {elapsed:.1f} s")
+    info["load_average_end"] = list(os.getloadavg())
+    info["proc_loadavg_end"] = proc_loadavg()
+    print(
+        f"\ntotal {elapsed:.1f} s | load average at start {info['load_average'][0]:.2f}, "
+        f"at end {info['load_average_end'][0]:.2f} (1 min) on {info['cores']} cores"
+    )
     if args.output is None or str(args.output) != "-":
-        out = args.output or (
-            REPO
-            / "benches"
-            / "results"
-            / f"{dt.date.today().isoformat()}-{socket.gethostname()}.json"
-        )
+        out = args.output or _default_output()
         out.parent.mkdir(parents=True, exist_ok=True)
         record = {
             "date": dt.datetime.now().isoformat(timespec="seconds"),
             "argv": list(argv) if argv is not None else sys.argv[1:],
             "machine": info,
             "elapsed_s": elapsed,
+            "case_elapsed_s": case_elapsed,
             "tables": [
                 {
                     "title": t.title,

@@ -200,10 +200,20 @@ def _datasheet_section(cal: Any) -> tuple[str, Any]:
 
 
 # ---------------------------------------------------------------------- commands
+def _check_quality(session: Any) -> list[dict[str, Any]]:
+    """Run the data-quality checks; each finding is also a warning printed on stderr."""
+    import dataclasses
+
+    from accelcore.quality import check_session
+
+    return [dataclasses.asdict(issue) for issue in check_session(session, warn=True)]
+
+
 def _cmd_calibrate(args: argparse.Namespace, out: TextIO) -> int:
     import accelcore
 
     session = accelcore.load_session(args.session)
+    quality = _check_quality(session)
     cal = accelcore.calibrate(
         session, args.method, t_ref_c=args.t_ref, window_c=(args.window[0], args.window[1])
     )
@@ -218,6 +228,7 @@ def _cmd_calibrate(args: argparse.Namespace, out: TextIO) -> int:
             "summary": summary,
             "datasheet": records,
             "calibration": cal.to_dict(),
+            "quality": quality,
         }
         write_json(args.json, json_document("calibrate", result), out)
     if args.json != "-":
@@ -375,9 +386,14 @@ def _cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
     except ImportError as exc:
         raise _UsageError(f"diagnosis is not available in this installation ({exc})") from exc
     session = accelcore.load_session(args.session)
+    quality = _check_quality(session)
     result = diagnosis.diagnose(session)
     if args.json:
-        body = {"session": str(args.session), "diagnosis": result.to_dict()}
+        body = {
+            "session": str(args.session),
+            "diagnosis": result.to_dict(),
+            "quality": quality,
+        }
         write_json(args.json, json_document("diagnose", body), out)
     if args.json != "-":
         print(result.text(), file=out)

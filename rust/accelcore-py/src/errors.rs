@@ -87,3 +87,13 @@ fn to_pyerr(py: Python<'_>, err: &Error) -> PyErr {
         ))
     })
 }
+
+/// An internal error (a caught panic) as `accelcore.AccelcoreError`.
+pub(crate) fn internal_error(py: Python<'_>, what: &str) -> PyErr {
+    let message =
+        format!("internal error in the accelcore core (please report it with the input): {what}");
+    py.import("accelcore.errors")
+        .and_then(|m| m.getattr("AccelcoreError"))
+        .and_then(|cls| cls.call1((message.as_str(),)))
+        .map_or_else(|e| e, PyErr::from_value)
+}

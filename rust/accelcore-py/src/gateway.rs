@@ -11,12 +11,26 @@ use pyo3::prelude::*;
 use crate::errors::CoreError;
 
 /// Run `work` with the GIL released and turn a core error into its exception.
+///
+/// A panic in the core (a bug: data-dependent paths return errors) is caught
+/// here and raised as `accelcore.AccelcoreError`, so it never reaches Python as
+/// a `PanicException`, which `except Exception` would not catch.
 pub(crate) fn run_detached<T, F>(py: Python<'_>, work: F) -> PyResult<T>
 where
     T: Send,
     F: FnOnce() -> accelcore_core::Result<T> + Send,
 {
-    py.detach(work).map_err(|e| CoreError(e).into())
+    match py.detach(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(work))) {
+        Ok(result) => result.map_err(|e| CoreError(e).into()),
+        Err(payload) => {
+            let what = payload
+                .downcast_ref::<&str>()
+                .map(ToString::to_string)
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".to_string());
+            Err(crate::errors::internal_error(py, &what))
+        }
+    }
 }
 
 /// A 1-D float64 input: any array-like, converted to float64 if needed.
