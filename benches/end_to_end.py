@@ -10,7 +10,7 @@ import numpy as np
 
 import accelcore
 from accelcore.bench import Context, Table, measure
-from benches.session_data import session_dir
+from benches.session_data import count_rows, session_dir
 
 RUNS = {
     "x": ("x_pos.csv", "x_neg.csv"),
@@ -39,7 +39,7 @@ def with_pandas(path: Path) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for axis, (plus_file, minus_file) in RUNS.items():
         plus, minus = binned(plus_file), binned(minus_file)
-        both = plus.join(minus, lsuffix="_p", rsuffix="_m", how="inner")
+        both = plus.add_suffix("_p").join(minus.add_suffix("_m"), how="inner")
         temp = 0.5 * (both["temp_c_p"] + both["temp_c_m"]).to_numpy()
         v_p, v_m = both[f"{axis}_p"].to_numpy(), both[f"{axis}_m"].to_numpy()
         offset = np.polyfit(temp - 25.0, 0.5 * (v_p + v_m), 1)
@@ -52,7 +52,7 @@ def run(ctx: Context) -> list[Table]:
     hours = 0.5 if ctx.quick else 3.5
     path = session_dir(ctx.workdir, hours)
     files = sorted(path.glob("*.csv"))
-    n_rows = sum(sum(1 for _ in f.open()) - 1 for f in files)
+    n_rows = sum(count_rows(f) for f in files)
     mb = sum(f.stat().st_size for f in files) / 1e6
     repeat = 1 if ctx.quick else 3
     table = Table(

@@ -87,7 +87,8 @@ def run(ctx: Context) -> list[Table]:
     table.notes.append(
         "peak MB = whole-process VmHWM (interpreter, NumPy, pandas imported by accelcore, "
         "one generated chunk, pipeline); the target is judged on peak minus the RSS after "
-        "imports; median s/rate = time inside push() only (one run)"
+        "imports; median s/rate = time inside push() only (one run); cpu s = the child's "
+        "generation + push"
     )
     return [table]
 

@@ -13,7 +13,7 @@ from accelcore import reference
 from accelcore._accelcore import read_run
 from accelcore.bench import Context, Row, Table, measure
 from benches.data import FloatArray
-from benches.session_data import session_dir
+from benches.session_data import count_rows, session_dir
 
 COLUMNS = ["time_s", "temp_c", "x", "y", "z"]
 
@@ -54,7 +54,7 @@ def with_polars(path: Path) -> object:
 def run(ctx: Context) -> list[Table]:
     hours = 0.5 if ctx.quick else 3.5  # 3.5 h at 20 Hz = 252 000 rows
     path = session_dir(ctx.workdir, hours) / "x_pos.csv"
-    n_rows = sum(1 for _ in path.open()) - 1
+    n_rows = count_rows(path)
     mb = path.stat().st_size / 1e6
     repeat = 1 if ctx.quick else 5
     table = Table(f"(b) reading {path.name}: {n_rows} rows, {mb:.1f} MB -> 2 Hz block means")

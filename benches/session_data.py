@@ -13,3 +13,9 @@ def session_dir(workdir: Path, hours: float) -> Path:
     if not (path / "session.toml").is_file():
         simulate.session(path, duration_h=hours, seed=1, overwrite=True)
     return path
+
+
+def count_rows(path: Path) -> int:
+    """Data rows of a CSV log (lines minus the header)."""
+    with path.open() as f:
+        return sum(1 for _ in f) - 1

@@ -479,3 +479,58 @@ class FusedPipeline:
     def t_ref_c(self) -> float: ...
     @property
     def n_channels(self) -> int: ...
+
+def plan_split(
+    path: str,
+    pieces: int,
+    /,
+    *,
+    delimiter: str = ",",
+    time_column: str = "time_s",
+    temperature_column: str = "temp_c",
+    channel_columns: list[str] = ...,
+    time_scale_to_s: float = 1.0,
+) -> tuple[list[tuple[int, int]], float | None]:
+    """Plan the reading of one log in up to ``pieces`` parallel pieces.
+
+    Returns line-aligned ``[start, end)`` byte ranges covering every data line once,
+    and the time of the first data row: the block origin every piece must use.
+    """
+
+def read_run_range(
+    path: str,
+    start: int,
+    end: int,
+    /,
+    *,
+    t0_s: float,
+    delimiter: str = ",",
+    time_column: str = "time_s",
+    temperature_column: str = "temp_c",
+    channel_columns: list[str] = ...,
+    keep_extra_columns: bool = True,
+    time_scale_to_s: float = 1.0,
+    factor: int = 10,
+    rate_hz: float = 20.0,
+) -> RunData:
+    """Read the data lines in a byte range of a log (one piece of :func:`plan_split`).
+
+    Blocks are kept whatever their count (``min_count`` is applied by
+    :func:`merge_runs`); errors name the line in the whole file.
+    """
+
+def merge_runs(pieces: list[RunData], /, *, min_count: int = 1, rate_hz: float = 20.0) -> RunData:
+    """Combine the pieces of one log, in file order, into the one-pass result.
+
+    Blocks cut by a piece boundary are joined (count-weighted means), then blocks
+    with fewer than ``min_count`` samples are dropped; counters add.
+    """
+
+def _blocks_from_arrays(
+    block_index: ArrayLike,
+    count: ArrayLike,
+    time_s: ArrayLike,
+    temperature_c: ArrayLike,
+    channels: NDArray[np.float64],
+) -> DecimatedBlocks: ...
+def _run_from_state(state: tuple[object, ...]) -> RunData: ...

@@ -44,7 +44,14 @@ import pandas as pd
 from accelcore._accelcore import __version__
 from accelcore.errors import AccelcoreError
 
-__all__ = ["BULK_SCHEMA", "BulkResult", "bulk", "find_sessions", "process_session"]
+__all__ = [
+    "BULK_SCHEMA",
+    "BulkResult",
+    "bulk",
+    "find_sessions",
+    "process_session",
+    "read_run_split",
+]
 
 BULK_SCHEMA = "accelcore-bulk/1"
 FLEET_COLUMNS = (
@@ -480,3 +487,77 @@ def bulk(
     return BulkResult(
         fleet, failures, len(sessions), sum(o.reused for o in outcomes), time.monotonic() - start
     )
+
+
+def read_run_split(
+    path: str | Path,
+    *,
+    pieces: int | None = None,
+    client: Any = None,
+    delimiter: str = ",",
+    time_column: str = "time_s",
+    temperature_column: str = "temp_c",
+    channel_columns: Sequence[str] = ("x", "y", "z"),
+    time_scale_to_s: float = 1.0,
+    factor: int = 10,
+    rate_hz: float = 20.0,
+    min_count: int = 1,
+) -> Any:
+    """Read and decimate one very long log in parallel pieces, then merge them.
+
+    The log is cut into line-aligned byte ranges (:func:`accelcore._accelcore.plan_split`);
+    each piece is read and decimated on its own (threads here, or tasks on a
+    Dask ``client``) on the block grid of the whole log, and the pieces are
+    merged (:func:`accelcore._accelcore.merge_runs`): blocks cut by a boundary
+    are joined, so the result equals :func:`accelcore._accelcore.read_run` of
+    the whole file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The log.
+    pieces : int, optional
+        Number of pieces; default: the number of cores (or of Dask workers).
+    client : dask.distributed.Client, optional
+        Read the pieces as tasks on this cluster (the file must be visible to
+        the workers at the same path).
+    delimiter, time_column, temperature_column, channel_columns, time_scale_to_s
+        The log's layout, as in ``session.toml``.
+    factor, rate_hz, min_count
+        Decimation, as in :class:`accelcore.core.Decimator`.
+
+    Returns
+    -------
+    accelcore._accelcore.RunData
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    from accelcore._accelcore import merge_runs, plan_split, read_run_range
+
+    layout: dict[str, Any] = {
+        "delimiter": delimiter,
+        "time_column": time_column,
+        "temperature_column": temperature_column,
+        "channel_columns": list(channel_columns),
+        "time_scale_to_s": time_scale_to_s,
+    }
+    if pieces is None:
+        if client is not None:
+            pieces = max(1, len(client.scheduler_info().get("workers", {})))
+        else:
+            pieces = os.cpu_count() or 1
+    ranges, t0_s = plan_split(str(path), pieces, **layout)
+    if t0_s is None:
+        raise AccelcoreError(f"{path}: no data row with a finite time")
+    kwargs = {**layout, "t0_s": t0_s, "factor": factor, "rate_hz": rate_hz}
+    if client is not None:
+        futures = [
+            client.submit(read_run_range, str(path), a, b, pure=False, **kwargs) for a, b in ranges
+        ]
+        parts = client.gather(futures)
+    else:
+        with ThreadPoolExecutor(max_workers=len(ranges)) as pool:
+            parts = list(
+                pool.map(lambda r: read_run_range(str(path), r[0], r[1], **kwargs), ranges)
+            )
+    return merge_runs(parts, min_count=min_count, rate_hz=rate_hz)

@@ -28,5 +28,8 @@ pub use decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 pub use error::{Error, Result};
 pub use features::first_order_lag;
 pub use pipeline::{FusedPipeline, PipelineConfig, PipelineResult};
-pub use reader::{read_run, read_run_from, ChannelRange, CsvFormat, RunData};
+pub use reader::{
+    merge_runs, plan_split, read_run, read_run_from, read_run_range, ChannelRange, CsvFormat,
+    RunData, SplitPlan,
+};
 pub use regression::{LeastSquares, LstsqSolution};

@@ -362,18 +362,42 @@ pub fn read_run_from<R: Read>(
     format: &CsvFormat,
     decimator: DecimatorConfig,
 ) -> Result<RunData> {
+    check_format(format)?;
+    let mut reader = BufReader::with_capacity(1 << 20, reader);
+    let (header, header_line, _) = read_header(&mut reader, path, format)?;
+    read_body(
+        reader,
+        path,
+        format,
+        header,
+        header_line,
+        Some(header_line),
+        decimator,
+        false,
+    )
+}
+
+fn check_format(format: &CsvFormat) -> Result<()> {
     if !(format.time_scale_to_s.is_finite() && format.time_scale_to_s > 0.0) {
         return Err(Error::InvalidParameter {
             name: "time_scale_to_s",
             reason: format!("must be finite and > 0, got {}", format.time_scale_to_s),
         });
     }
-    let mut reader = BufReader::with_capacity(1 << 20, reader);
+    Ok(())
+}
+
+/// The header: the first non-blank line. Returns it, its line number and the bytes consumed.
+fn read_header<R: BufRead>(
+    reader: &mut R,
+    path: &str,
+    format: &CsvFormat,
+) -> Result<(Vec<String>, u64, u64)> {
     let mut line = Vec::with_capacity(256);
     let mut line_no: u64 = 0;
-    // Header: the first non-blank line.
-    let header: Vec<String> = loop {
-        let n = read_line(&mut reader, &mut line, path, line_no + 1)?;
+    let mut consumed: u64 = 0;
+    loop {
+        let n = read_line(reader, &mut line, path, line_no + 1)?;
         if n == 0 {
             return Err(parse_error(
                 path,
@@ -382,6 +406,7 @@ pub fn read_run_from<R: Read>(
                 "empty file: no header".into(),
             ));
         }
+        consumed += n as u64;
         line_no += 1;
         let mut text = strip_line_end(&line);
         if line_no == 1 {
@@ -393,12 +418,30 @@ pub fn read_run_from<R: Read>(
         let text = std::str::from_utf8(text).map_err(|e| {
             parse_error(path, line_no, 1, format!("header is not valid UTF-8: {e}"))
         })?;
-        break text
+        let header = text
             .split(format.delimiter as char)
             .map(|h| h.trim().to_string())
             .collect();
-    };
-    let header_line = line_no;
+        return Ok((header, line_no, consumed));
+    }
+}
+
+/// The data lines after the header. `first_line` is the line number of the line
+/// before the first one read (None when reading a piece whose position in lines is
+/// unknown: errors then count lines relative to the piece, fixed up by the caller).
+#[allow(clippy::too_many_lines)]
+fn read_body<R: BufRead>(
+    mut reader: R,
+    path: &str,
+    format: &CsvFormat,
+    header: Vec<String>,
+    header_line: u64,
+    first_line: Option<u64>,
+    decimator: DecimatorConfig,
+    allow_empty: bool,
+) -> Result<RunData> {
+    let mut line = Vec::with_capacity(256);
+    let mut line_no: u64 = first_line.unwrap_or(0);
     let columns = map_columns(path, &header, format)?;
     let n_fields = header.len();
     let n_channels = columns.channels.len();
@@ -487,7 +530,7 @@ pub fn read_run_from<R: Read>(
         }
     }
     batch.flush(&mut decimator, n_channels, path, time_field)?;
-    if n_rows == 0 {
+    if n_rows == 0 && !allow_empty {
         return Err(parse_error(
             path,
             header_line,
@@ -495,14 +538,21 @@ pub fn read_run_from<R: Read>(
             "no data rows after the header".into(),
         ));
     }
-    let blocks = decimator.finish().map_err(|_| {
-        parse_error(
-            path,
-            header_line + 1,
-            1,
-            format!("none of the {n_rows} rows has finite values in every column"),
-        )
-    })?;
+    let blocks = if allow_empty && decimator.n_samples() == decimator.n_skipped_nonfinite() {
+        DecimatedBlocks {
+            n_channels,
+            ..DecimatedBlocks::default()
+        }
+    } else {
+        decimator.finish().map_err(|_| {
+            parse_error(
+                path,
+                header_line + 1,
+                1,
+                format!("none of the {n_rows} rows has finite values in every column"),
+            )
+        })?
+    };
     Ok(RunData {
         header,
         channel_names: columns.names,
@@ -516,4 +566,269 @@ pub fn read_run_from<R: Read>(
         max_interval_s: max_interval,
         channel_ranges: ranges,
     })
+}
+
+/// How to read one log in pieces: byte ranges that start at line starts, and the
+/// time of the first data row, which every piece must use as the block grid's
+/// origin (`DecimatorConfig::t0_s`) so that blocks line up across pieces.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SplitPlan {
+    /// `[start, end)` byte ranges covering every data line once, in file order.
+    pub ranges: Vec<(u64, u64)>,
+    /// Time of the first data row with a finite time, seconds; None if there is none.
+    pub t0_s: Option<f64>,
+}
+
+/// Plan the reading of one log in up to `pieces` parallel pieces (see [`SplitPlan`]).
+pub fn plan_split(path: &Path, format: &CsvFormat, pieces: usize) -> Result<SplitPlan> {
+    use std::io::{Seek, SeekFrom};
+    check_format(format)?;
+    if pieces == 0 {
+        return Err(Error::InvalidParameter {
+            name: "pieces",
+            reason: "must be >= 1".into(),
+        });
+    }
+    let shown = path.display().to_string();
+    let file = File::open(path).map_err(|e| io_error(&shown, &e))?;
+    let size = file.metadata().map_err(|e| io_error(&shown, &e))?.len();
+    let mut reader = BufReader::with_capacity(1 << 16, file);
+    let (header, header_line, data_start) = read_header(&mut reader, &shown, format)?;
+    let columns = map_columns(&shown, &header, format)?;
+    // The first finite time: the block grid's origin of a one-pass read.
+    let mut t0_s = None;
+    let mut line = Vec::with_capacity(256);
+    let mut line_no = header_line;
+    loop {
+        let n = read_line(&mut reader, &mut line, &shown, line_no + 1)?;
+        if n == 0 {
+            break;
+        }
+        line_no += 1;
+        let cell = split_fields(strip_line_end(&line), format.delimiter).nth(columns.time);
+        if let Some(t) = cell
+            .and_then(parse_cell)
+            .map(|t| t * format.time_scale_to_s)
+        {
+            if t.is_finite() {
+                t0_s = Some(t);
+                break;
+            }
+        }
+    }
+    let mut file = reader.into_inner();
+    let mut bounds = vec![data_start];
+    for k in 1..pieces as u64 {
+        let guess = data_start + (size - data_start) * k / pieces as u64;
+        if guess <= *bounds.last().unwrap_or(&data_start) || guess >= size {
+            continue;
+        }
+        file.seek(SeekFrom::Start(guess - 1))
+            .map_err(|e| io_error(&shown, &e))?;
+        let mut rest = BufReader::with_capacity(1 << 16, &mut file);
+        let n = read_line(&mut rest, &mut line, &shown, 0)?;
+        let aligned = guess - 1 + n as u64;
+        if aligned > *bounds.last().unwrap_or(&data_start) && aligned < size {
+            bounds.push(aligned);
+        }
+    }
+    bounds.push(size);
+    let ranges = bounds.windows(2).map(|w| (w[0], w[1])).collect();
+    Ok(SplitPlan { ranges, t0_s })
+}
+
+/// Read the data lines in the byte range `[start, end)` of a log (a range of a
+/// [`SplitPlan`]); the header is read from the top of the file. `decimator.t0_s`
+/// must be the plan's `t0_s` and `min_count` 1, so that the pieces' blocks can be
+/// combined by [`merge_runs`]. A piece may hold no data. Errors name the line in
+/// the whole file.
+pub fn read_run_range(
+    path: &Path,
+    format: &CsvFormat,
+    decimator: DecimatorConfig,
+    start: u64,
+    end: u64,
+) -> Result<RunData> {
+    use std::io::{Seek, SeekFrom};
+    check_format(format)?;
+    if decimator.t0_s.is_none() {
+        return Err(Error::InvalidParameter {
+            name: "t0_s",
+            reason: "a piece of a log needs the log's block origin (SplitPlan::t0_s)".into(),
+        });
+    }
+    let shown = path.display().to_string();
+    let file = File::open(path).map_err(|e| io_error(&shown, &e))?;
+    let mut reader = BufReader::with_capacity(1 << 16, file);
+    let (header, header_line, data_start) = read_header(&mut reader, &shown, format)?;
+    let start = start.max(data_start);
+    let mut file = reader.into_inner();
+    file.seek(SeekFrom::Start(start))
+        .map_err(|e| io_error(&shown, &e))?;
+    let body = BufReader::with_capacity(1 << 20, file.take(end.saturating_sub(start)));
+    let first_line = (start == data_start).then_some(header_line);
+    read_body(
+        body,
+        &shown,
+        format,
+        header,
+        header_line,
+        first_line,
+        decimator,
+        true,
+    )
+    .map_err(|err| match err {
+        Error::Parse {
+            path,
+            line,
+            column,
+            reason,
+        } if first_line.is_none() => {
+            // Lines were counted from the piece's start: add the lines before it.
+            let before = count_newlines(&shown, start).unwrap_or(0);
+            Error::Parse {
+                path,
+                line: line + before,
+                column,
+                reason,
+            }
+        }
+        other => other,
+    })
+}
+
+/// Number of `\n` bytes in the first `limit` bytes of a file.
+fn count_newlines(path: &str, limit: u64) -> Result<u64> {
+    let file = File::open(path).map_err(|e| io_error(path, &e))?;
+    let mut reader = BufReader::with_capacity(1 << 20, file.take(limit));
+    let mut total = 0u64;
+    loop {
+        let buf = reader.fill_buf().map_err(|e| io_error(path, &e))?;
+        if buf.is_empty() {
+            return Ok(total);
+        }
+        // Runs once, on an error only: a plain count is enough (no bytecount dependency).
+        #[allow(clippy::naive_bytecount)]
+        let found = buf.iter().filter(|&&b| b == b'\n').count() as u64;
+        total += found;
+        let n = buf.len();
+        reader.consume(n);
+    }
+}
+
+/// Combine the pieces of one log, read by [`read_run_range`] in file order, into
+/// the result of one pass: blocks cut by a piece boundary are joined (means
+/// weighted by their counts), then blocks under `min_count` samples are dropped;
+/// counters add, and the interval across each boundary counts for gaps.
+pub fn merge_runs(pieces: &[RunData], min_count: usize, rate_hz: f64) -> Result<RunData> {
+    let Some(first) = pieces.first() else {
+        return Err(Error::Empty {
+            what: "merge_runs: no pieces",
+        });
+    };
+    let nc = first.blocks.n_channels;
+    let mut out = RunData {
+        header: first.header.clone(),
+        channel_names: first.channel_names.clone(),
+        blocks: DecimatedBlocks {
+            n_channels: nc,
+            ..DecimatedBlocks::default()
+        },
+        n_rows: 0,
+        n_skipped_nonfinite: 0,
+        n_truncated_rows: 0,
+        first_time_s: f64::NAN,
+        last_time_s: f64::NAN,
+        n_gaps: 0,
+        max_interval_s: 0.0,
+        channel_ranges: vec![ChannelRange::default(); first.channel_ranges.len()],
+    };
+    let b = &mut out.blocks;
+    for piece in pieces {
+        if piece.channel_names != out.channel_names || piece.blocks.n_channels != nc {
+            return Err(Error::Incompatible {
+                reason: "pieces of one log must have the same columns".into(),
+            });
+        }
+        let p = &piece.blocks;
+        for k in 0..p.block_index.len() {
+            let (idx, count) = (p.block_index[k], p.count[k]);
+            let row = &p.channels[k * nc..(k + 1) * nc];
+            if b.block_index.last() == Some(&idx) {
+                let j = b.block_index.len() - 1;
+                let (c0, c1) = (b.count[j] as f64, count as f64);
+                let total = c0 + c1;
+                let mix = |a: f64, x: f64| (a * c0 + x * c1) / total;
+                b.time_s[j] = mix(b.time_s[j], p.time_s[k]);
+                b.temperature_c[j] = mix(b.temperature_c[j], p.temperature_c[k]);
+                for (a, &x) in b.channels[j * nc..(j + 1) * nc].iter_mut().zip(row) {
+                    *a = mix(*a, x);
+                }
+                b.count[j] += count;
+            } else if b.block_index.last().is_some_and(|&last| last > idx) {
+                return Err(Error::Incompatible {
+                    reason: "pieces are not in file order (or overlap)".into(),
+                });
+            } else {
+                b.block_index.push(idx);
+                b.count.push(count);
+                b.time_s.push(p.time_s[k]);
+                b.temperature_c.push(p.temperature_c[k]);
+                b.channels.extend_from_slice(row);
+            }
+        }
+        if piece.first_time_s.is_finite() {
+            if out.last_time_s.is_finite() {
+                let dt = piece.first_time_s - out.last_time_s;
+                out.max_interval_s = out.max_interval_s.max(dt);
+                if dt > 1.5 / rate_hz {
+                    out.n_gaps += 1;
+                }
+            } else {
+                out.first_time_s = piece.first_time_s;
+            }
+            out.last_time_s = piece.last_time_s;
+        }
+        out.max_interval_s = out.max_interval_s.max(piece.max_interval_s);
+        out.n_gaps += piece.n_gaps;
+        out.n_rows += piece.n_rows;
+        out.n_skipped_nonfinite += piece.n_skipped_nonfinite;
+        out.n_truncated_rows += piece.n_truncated_rows;
+        for (acc, r) in out.channel_ranges.iter_mut().zip(&piece.channel_ranges) {
+            if r.min < acc.min {
+                (acc.min, acc.n_at_min) = (r.min, r.n_at_min);
+            } else if r.min == acc.min {
+                acc.n_at_min += r.n_at_min;
+            }
+            if r.max > acc.max {
+                (acc.max, acc.n_at_max) = (r.max, r.n_at_max);
+            } else if r.max == acc.max {
+                acc.n_at_max += r.n_at_max;
+            }
+        }
+    }
+    // Drop blocks under min_count, now that cut blocks are whole again.
+    let keep: Vec<bool> = b.count.iter().map(|&c| c >= min_count as u64).collect();
+    let mut j = 0;
+    for (k, &kept) in keep.iter().enumerate() {
+        if kept {
+            b.block_index[j] = b.block_index[k];
+            b.count[j] = b.count[k];
+            b.time_s[j] = b.time_s[k];
+            b.temperature_c[j] = b.temperature_c[k];
+            b.channels.copy_within(k * nc..(k + 1) * nc, j * nc);
+            j += 1;
+        }
+    }
+    b.block_index.truncate(j);
+    b.count.truncate(j);
+    b.time_s.truncate(j);
+    b.temperature_c.truncate(j);
+    b.channels.truncate(j * nc);
+    if j == 0 {
+        return Err(Error::Empty {
+            what: "merge_runs: no block with enough valid samples",
+        });
+    }
+    Ok(out)
 }

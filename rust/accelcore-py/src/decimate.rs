@@ -2,7 +2,9 @@
 
 use accelcore_core::{DecimatedBlocks, Decimator, DecimatorConfig};
 use ndarray::Array2;
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyUntypedArrayMethods};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 
 use crate::gateway::{array1, array2, count, run_detached, slice_or_copy};
@@ -37,8 +39,86 @@ pub(crate) fn blocks_to_py(py: Python<'_>, blocks: DecimatedBlocks) -> PyResult<
     })
 }
 
+impl PyDecimatedBlocks {
+    /// The core value behind these arrays.
+    pub(crate) fn to_core(&self, py: Python<'_>) -> PyResult<DecimatedBlocks> {
+        let channels = self.channels.bind(py).readonly();
+        let n_channels = channels.as_array().ncols();
+        let count: Vec<u64> = self
+            .count
+            .bind(py)
+            .readonly()
+            .as_array()
+            .iter()
+            .map(|&c| c.max(0) as u64)
+            .collect();
+        Ok(DecimatedBlocks {
+            n_channels,
+            block_index: self.block_index.bind(py).readonly().as_array().to_vec(),
+            count,
+            time_s: self.time_s.bind(py).readonly().as_array().to_vec(),
+            temperature_c: self.temperature_c.bind(py).readonly().as_array().to_vec(),
+            channels: channels.as_array().iter().copied().collect(),
+        })
+    }
+}
+
+/// Rebuild `DecimatedBlocks` from its arrays (pickling).
+#[pyfunction(name = "_blocks_from_arrays")]
+pub(crate) fn py_blocks_from_arrays(
+    py: Python<'_>,
+    block_index: Vec<i64>,
+    count: Vec<i64>,
+    time_s: Vec<f64>,
+    temperature_c: Vec<f64>,
+    channels: PyReadonlyArray2<'_, f64>,
+) -> PyResult<PyDecimatedBlocks> {
+    let n = block_index.len();
+    let channels = channels.as_array();
+    for (what, len) in [
+        ("count", count.len()),
+        ("time_s", time_s.len()),
+        ("temperature_c", temperature_c.len()),
+        ("channels rows", channels.nrows()),
+    ] {
+        if len != n {
+            return Err(crate::errors::CoreError(accelcore_core::Error::Shape {
+                what,
+                expected: n,
+                got: len,
+            })
+            .into());
+        }
+    }
+    let blocks = DecimatedBlocks {
+        n_channels: channels.ncols(),
+        block_index,
+        count: count.iter().map(|&c| c.max(0) as u64).collect(),
+        time_s,
+        temperature_c,
+        channels: channels.iter().copied().collect(),
+    };
+    blocks_to_py(py, blocks)
+}
+
 #[pymethods]
 impl PyDecimatedBlocks {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let rebuild = py
+            .import("accelcore._accelcore")?
+            .getattr("_blocks_from_arrays")?;
+        let args = (
+            self.block_index.clone_ref(py),
+            self.count.clone_ref(py),
+            self.time_s.clone_ref(py),
+            self.temperature_c.clone_ref(py),
+            self.channels.clone_ref(py),
+        )
+            .into_pyobject(py)?
+            .into_any();
+        Ok((rebuild, args))
+    }
+
     fn __len__(&self, py: Python<'_>) -> usize {
         self.block_index.bind(py).len()
     }

@@ -21,11 +21,13 @@ mod _accelcore {
     #[pymodule_export]
     use super::compensation::{py_compensate, py_first_order_lag};
     #[pymodule_export]
-    use super::decimate::{PyDecimatedBlocks, PyDecimator};
+    use super::decimate::{py_blocks_from_arrays, PyDecimatedBlocks, PyDecimator};
     #[pymodule_export]
     use super::pipeline::{PyFusedPipeline, PyPipelineResult};
     #[pymodule_export]
-    use super::reader::{py_read_run, PyRunData};
+    use super::reader::{
+        py_merge_runs, py_plan_split, py_read_run, py_read_run_range, py_run_from_state, PyRunData,
+    };
     #[pymodule_export]
     use super::regression::{PyLeastSquares, PyLstsqSolution};
 

@@ -2,12 +2,15 @@
 
 use std::path::PathBuf;
 
-use accelcore_core::{read_run, CsvFormat, DecimatorConfig, RunData};
-use numpy::{IntoPyArray, PyArray1};
+use accelcore_core::{
+    merge_runs, plan_split, read_run, read_run_range, ChannelRange, CsvFormat, DecimatorConfig,
+    RunData,
+};
+use numpy::{IntoPyArray, PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 
 use crate::decimate::{blocks_to_py, PyDecimatedBlocks};
-use crate::gateway::run_detached;
+use crate::gateway::{count, run_detached};
 
 /// One log file read and decimated.
 #[pyclass(name = "RunData", module = "accelcore.core", frozen, get_all)]
@@ -26,6 +29,102 @@ pub(crate) struct PyRunData {
     channel_max: Py<PyArray1<f64>>,
     n_at_min: Py<PyArray1<u64>>,
     n_at_max: Py<PyArray1<u64>>,
+}
+
+impl PyRunData {
+    fn to_core(&self, py: Python<'_>) -> PyResult<RunData> {
+        let min = self.channel_min.bind(py).readonly().as_array().to_vec();
+        let max = self.channel_max.bind(py).readonly().as_array().to_vec();
+        let at_min = self.n_at_min.bind(py).readonly().as_array().to_vec();
+        let at_max = self.n_at_max.bind(py).readonly().as_array().to_vec();
+        let channel_ranges = (0..min.len())
+            .map(|i| ChannelRange {
+                min: min[i],
+                max: max[i],
+                n_at_min: at_min[i],
+                n_at_max: at_max[i],
+            })
+            .collect();
+        Ok(RunData {
+            header: self.header.clone(),
+            channel_names: self.channel_names.clone(),
+            blocks: self.blocks.borrow(py).to_core(py)?,
+            n_rows: self.n_rows,
+            n_skipped_nonfinite: self.n_skipped_nonfinite,
+            n_truncated_rows: self.n_truncated_rows,
+            first_time_s: self.first_time_s,
+            last_time_s: self.last_time_s,
+            n_gaps: self.n_gaps,
+            max_interval_s: self.max_interval_s,
+            channel_ranges,
+        })
+    }
+}
+
+#[pymethods]
+impl PyRunData {
+    /// Pickle support, so pieces read on Dask workers come back to the client.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+        let rebuild = py
+            .import("accelcore._accelcore")?
+            .getattr("_run_from_state")?;
+        let state = (
+            self.header.clone(),
+            self.channel_names.clone(),
+            self.blocks.clone_ref(py),
+            (
+                self.n_rows,
+                self.n_skipped_nonfinite,
+                self.n_truncated_rows,
+                self.n_gaps,
+            ),
+            (self.first_time_s, self.last_time_s, self.max_interval_s),
+            (
+                self.channel_min.clone_ref(py),
+                self.channel_max.clone_ref(py),
+                self.n_at_min.clone_ref(py),
+                self.n_at_max.clone_ref(py),
+            ),
+        );
+        Ok((rebuild, (state,).into_pyobject(py)?.into_any()))
+    }
+}
+
+type RunState<'py> = (
+    Vec<String>,
+    Vec<String>,
+    Py<PyDecimatedBlocks>,
+    (u64, u64, u64, u64),
+    (f64, f64, f64),
+    (Vec<f64>, Vec<f64>, Vec<u64>, Vec<u64>),
+);
+
+/// Rebuild `RunData` from `__reduce__`'s state.
+#[pyfunction(name = "_run_from_state")]
+pub(crate) fn py_run_from_state(py: Python<'_>, state: RunState<'_>) -> PyResult<PyRunData> {
+    let (header, channel_names, blocks, counts, times, ranges) = state;
+    let channel_ranges = (0..ranges.0.len())
+        .map(|i| ChannelRange {
+            min: ranges.0[i],
+            max: ranges.1.get(i).copied().unwrap_or(f64::NAN),
+            n_at_min: ranges.2.get(i).copied().unwrap_or(0),
+            n_at_max: ranges.3.get(i).copied().unwrap_or(0),
+        })
+        .collect();
+    let run = RunData {
+        header,
+        channel_names,
+        blocks: blocks.borrow(py).to_core(py)?,
+        n_rows: counts.0,
+        n_skipped_nonfinite: counts.1,
+        n_truncated_rows: counts.2,
+        n_gaps: counts.3,
+        first_time_s: times.0,
+        last_time_s: times.1,
+        max_interval_s: times.2,
+        channel_ranges,
+    };
+    run_to_py(py, run)
 }
 
 fn run_to_py(py: Python<'_>, run: RunData) -> PyResult<PyRunData> {
@@ -52,6 +151,36 @@ fn run_to_py(py: Python<'_>, run: RunData) -> PyResult<PyRunData> {
     })
 }
 
+fn csv_format(
+    delimiter: &str,
+    time_column: &str,
+    temperature_column: &str,
+    channel_columns: Vec<String>,
+    keep_extra_columns: bool,
+    time_scale_to_s: f64,
+) -> PyResult<CsvFormat> {
+    let delimiter = match delimiter.as_bytes() {
+        [b] if b.is_ascii() => *b,
+        _ => {
+            return Err(
+                crate::errors::CoreError(accelcore_core::Error::InvalidParameter {
+                    name: "delimiter",
+                    reason: format!("must be one ASCII character, got {delimiter:?}"),
+                })
+                .into(),
+            )
+        }
+    };
+    Ok(CsvFormat {
+        delimiter,
+        time_column: time_column.to_string(),
+        temperature_column: temperature_column.to_string(),
+        channel_columns,
+        keep_extra_columns,
+        time_scale_to_s,
+    })
+}
+
 /// Read one delimited log file and decimate it on the fly (the file is never held whole).
 #[pyfunction(name = "read_run")]
 #[pyo3(signature = (
@@ -68,33 +197,118 @@ pub(crate) fn py_read_run(
     channel_columns: Vec<String>,
     keep_extra_columns: bool,
     time_scale_to_s: f64,
-    factor: usize,
+    factor: i64,
     rate_hz: f64,
-    min_count: usize,
+    min_count: i64,
 ) -> PyResult<PyRunData> {
-    let delimiter = match delimiter.as_bytes() {
-        [b] if b.is_ascii() => *b,
-        _ => {
-            return Err(pyo3::exceptions::PyValueError::new_err(format!(
-                "delimiter must be one ASCII character, got {delimiter:?}"
-            )))
-        }
-    };
-    let format = CsvFormat {
+    let format = csv_format(
         delimiter,
-        time_column: time_column.to_string(),
-        temperature_column: temperature_column.to_string(),
+        time_column,
+        temperature_column,
         channel_columns,
         keep_extra_columns,
         time_scale_to_s,
-    };
+    )?;
     let config = DecimatorConfig {
-        factor,
+        factor: count("factor", factor)?,
         rate_hz,
         n_channels: 0,
-        min_count,
+        min_count: count("min_count", min_count)?,
         t0_s: None,
     };
     let run = run_detached(py, || read_run(&path, &format, config))?;
+    run_to_py(py, run)
+}
+
+/// `(ranges, t0_s)` of a split plan, as Python receives it.
+type SplitPlanTuple = (Vec<(u64, u64)>, Option<f64>);
+
+/// Plan the reading of one log in pieces: line-aligned byte ranges and the block origin.
+#[pyfunction(name = "plan_split")]
+#[pyo3(signature = (
+    path, pieces, /, *, delimiter = ",", time_column = "time_s", temperature_column = "temp_c",
+    channel_columns = vec!["x".to_string(), "y".to_string(), "z".to_string()],
+    time_scale_to_s = 1.0
+))]
+pub(crate) fn py_plan_split(
+    py: Python<'_>,
+    path: PathBuf,
+    pieces: i64,
+    delimiter: &str,
+    time_column: &str,
+    temperature_column: &str,
+    channel_columns: Vec<String>,
+    time_scale_to_s: f64,
+) -> PyResult<SplitPlanTuple> {
+    let format = csv_format(
+        delimiter,
+        time_column,
+        temperature_column,
+        channel_columns,
+        true,
+        time_scale_to_s,
+    )?;
+    let pieces = count("pieces", pieces)?;
+    let plan = run_detached(py, || plan_split(&path, &format, pieces))?;
+    Ok((plan.ranges, plan.t0_s))
+}
+
+/// Read the data lines in a byte range of a log (a piece of `plan_split`).
+#[pyfunction(name = "read_run_range")]
+#[pyo3(signature = (
+    path, start, end, /, *, t0_s, delimiter = ",", time_column = "time_s",
+    temperature_column = "temp_c",
+    channel_columns = vec!["x".to_string(), "y".to_string(), "z".to_string()],
+    keep_extra_columns = true, time_scale_to_s = 1.0, factor = 10, rate_hz = 20.0
+))]
+pub(crate) fn py_read_run_range(
+    py: Python<'_>,
+    path: PathBuf,
+    start: u64,
+    end: u64,
+    t0_s: f64,
+    delimiter: &str,
+    time_column: &str,
+    temperature_column: &str,
+    channel_columns: Vec<String>,
+    keep_extra_columns: bool,
+    time_scale_to_s: f64,
+    factor: i64,
+    rate_hz: f64,
+) -> PyResult<PyRunData> {
+    let format = csv_format(
+        delimiter,
+        time_column,
+        temperature_column,
+        channel_columns,
+        keep_extra_columns,
+        time_scale_to_s,
+    )?;
+    let config = DecimatorConfig {
+        factor: count("factor", factor)?,
+        rate_hz,
+        n_channels: 0,
+        min_count: 1,
+        t0_s: Some(t0_s),
+    };
+    let run = run_detached(py, || read_run_range(&path, &format, config, start, end))?;
+    run_to_py(py, run)
+}
+
+/// Combine pieces of one log, in file order, into the one-pass result.
+#[pyfunction(name = "merge_runs")]
+#[pyo3(signature = (pieces, /, *, min_count = 1, rate_hz = 20.0))]
+pub(crate) fn py_merge_runs(
+    py: Python<'_>,
+    pieces: Vec<PyRef<'_, PyRunData>>,
+    min_count: i64,
+    rate_hz: f64,
+) -> PyResult<PyRunData> {
+    let min_count = count("min_count", min_count)?;
+    let parts = pieces
+        .iter()
+        .map(|p| p.to_core(py))
+        .collect::<PyResult<Vec<_>>>()?;
+    let run = run_detached(py, || merge_runs(&parts, min_count, rate_hz))?;
     run_to_py(py, run)
 }

@@ -1,0 +1,168 @@
+//! Reading one log in pieces and merging them gives the one-pass result.
+#![allow(clippy::format_push_string, clippy::cast_lossless)]
+
+use std::io::Write;
+
+use accelcore_core::{
+    merge_runs, plan_split, read_run, read_run_range, CsvFormat, DecimatorConfig, Error,
+};
+
+fn write_log(rows: usize, nan_every: usize, gap_at: usize) -> tempfile_path::TempLog {
+    let mut text = String::from("time_s,temp_c,x,y,z,supply_v\n");
+    let mut t = 0.0f64;
+    for i in 0..rows {
+        if i == gap_at {
+            t += 3.3;
+        }
+        let y = if nan_every > 0 && i % nan_every == 7 {
+            "nan".to_string()
+        } else {
+            format!("{:.6}", 1.48 + 1e-4 * (i % 13) as f64)
+        };
+        text.push_str(&format!(
+            "{t:.3},{:.3},{:.6},{y},{:.6},{:.4}\n",
+            -2.0 + 0.001 * i as f64,
+            1.5 + 1e-5 * i as f64,
+            1.8 - 1e-6 * i as f64,
+            3.0 + 1e-4 * (i % 7) as f64
+        ));
+        t += 0.05;
+    }
+    tempfile_path::TempLog::new(&text)
+}
+
+mod tempfile_path {
+    use std::path::PathBuf;
+
+    pub(crate) struct TempLog(pub(crate) PathBuf);
+
+    impl TempLog {
+        pub(crate) fn new(text: &str) -> Self {
+            use std::sync::atomic::{AtomicUsize, Ordering};
+            static N: AtomicUsize = AtomicUsize::new(0);
+            let n = N.fetch_add(1, Ordering::Relaxed);
+            let path = std::env::temp_dir()
+                .join(format!("accelcore-split-{}-{n}.csv", std::process::id()));
+            let mut f = std::fs::File::create(&path).unwrap();
+            super::Write::write_all(&mut f, text.as_bytes()).unwrap();
+            Self(path)
+        }
+    }
+
+    impl Drop for TempLog {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_file(&self.0);
+        }
+    }
+}
+
+fn split_equals_one_pass(rows: usize, pieces: usize, min_count: usize) {
+    let log = write_log(rows, 11, rows / 3);
+    let format = CsvFormat::default();
+    let config = DecimatorConfig {
+        min_count,
+        ..DecimatorConfig::default()
+    };
+    let whole = read_run(&log.0, &format, config.clone()).unwrap();
+    let plan = plan_split(&log.0, &format, pieces).unwrap();
+    assert!(plan.ranges.len() <= pieces);
+    let piece_config = DecimatorConfig {
+        t0_s: plan.t0_s,
+        min_count: 1,
+        ..config
+    };
+    let parts: Vec<_> = plan
+        .ranges
+        .iter()
+        .map(|&(a, b)| read_run_range(&log.0, &format, piece_config.clone(), a, b).unwrap())
+        .collect();
+    let merged = merge_runs(&parts, min_count, 20.0).unwrap();
+    assert_eq!(merged.blocks.block_index, whole.blocks.block_index);
+    assert_eq!(merged.blocks.count, whole.blocks.count);
+    // Joined blocks are count-weighted means of partial means: equal to rounding.
+    let close = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .all(|(x, y)| (x - y).abs() <= 1e-13 * x.abs().max(1.0))
+    };
+    assert!(close(&merged.blocks.time_s, &whole.blocks.time_s));
+    assert!(close(
+        &merged.blocks.temperature_c,
+        &whole.blocks.temperature_c
+    ));
+    assert!(close(&merged.blocks.channels, &whole.blocks.channels));
+    assert_eq!(merged.n_rows, whole.n_rows);
+    assert_eq!(merged.n_skipped_nonfinite, whole.n_skipped_nonfinite);
+    assert_eq!(merged.n_gaps, whole.n_gaps);
+    assert_eq!(merged.max_interval_s, whole.max_interval_s);
+    assert_eq!(merged.first_time_s, whole.first_time_s);
+    assert_eq!(merged.last_time_s, whole.last_time_s);
+    assert_eq!(merged.channel_ranges, whole.channel_ranges);
+    assert_eq!(merged.channel_names, whole.channel_names);
+}
+
+#[test]
+fn pieces_merge_to_the_one_pass_result() {
+    for pieces in [1, 2, 3, 7, 16] {
+        split_equals_one_pass(2000, pieces, 1);
+        split_equals_one_pass(2000, pieces, 8);
+    }
+}
+
+#[test]
+fn more_pieces_than_lines_is_fine() {
+    split_equals_one_pass(5, 64, 1);
+}
+
+#[test]
+fn errors_in_a_later_piece_name_the_line_in_the_whole_file() {
+    let mut text = String::from("time_s,temp_c,x,y,z\n");
+    for i in 0..100 {
+        let x = if i == 80 {
+            "bad".to_string()
+        } else {
+            "1.5".to_string()
+        };
+        text.push_str(&format!("{:.2},20,{x},1.5,1.8\n", f64::from(i) * 0.05));
+    }
+    let log = tempfile_path::TempLog::new(&text);
+    let format = CsvFormat::default();
+    let plan = plan_split(&log.0, &format, 4).unwrap();
+    let config = DecimatorConfig {
+        t0_s: plan.t0_s,
+        ..DecimatorConfig::default()
+    };
+    let errors: Vec<_> = plan
+        .ranges
+        .iter()
+        .filter_map(|&(a, b)| read_run_range(&log.0, &format, config.clone(), a, b).err())
+        .collect();
+    assert_eq!(errors.len(), 1);
+    assert!(
+        matches!(
+            &errors[0],
+            Error::Parse {
+                line: 82,
+                column: 3,
+                ..
+            }
+        ),
+        "{:?}",
+        errors[0]
+    );
+}
+
+#[test]
+fn a_piece_needs_the_block_origin() {
+    let log = write_log(10, 0, 100);
+    let err = read_run_range(
+        &log.0,
+        &CsvFormat::default(),
+        DecimatorConfig::default(),
+        0,
+        100,
+    )
+    .unwrap_err();
+    assert!(matches!(err, Error::InvalidParameter { name: "t0_s", .. }));
+    assert!(matches!(merge_runs(&[], 1, 20.0), Err(Error::Empty { .. })));
+}
