@@ -39,7 +39,7 @@ test-rust:  ## Rust unit, property and doc tests of the core crate
 test-py: dev  ## Python tests (hypothesis profile from HYPOTHESIS_PROFILE=dev|ci|thorough)
 	ACCELCORE_HYPOTHESIS_PROFILE=$(HYPOTHESIS_PROFILE) $(PY) -m pytest -q
 
-lint: $(STAMP)  ## rustfmt, clippy -D warnings, ruff, mypy --strict, stubtest
+lint: dev  ## rustfmt, clippy -D warnings, ruff, mypy --strict, stubtest
 	cargo fmt --all -- --check
 	cargo clippy --workspace --all-targets --quiet -- -D warnings
 	$(VENV)/bin/ruff check python tests benches

@@ -213,6 +213,26 @@ def proc_loadavg() -> str | None:
         return None
 
 
+def git_state() -> dict[str, Any] | None:
+    """Commit of the source tree and whether it had uncommitted changes (None outside git)."""
+    import subprocess
+
+    try:
+        head = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True, check=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.split("\n")
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return {"commit": head, "modified": [line[3:] for line in dirty if line.strip()]}
+
+
 def machine() -> dict[str, Any]:
     """CPU model, core count, load and library versions."""
     cpu = platform.processor() or "unknown"
@@ -244,6 +264,7 @@ def machine() -> dict[str, Any]:
         "proc_loadavg": proc_loadavg(),
         "platform": platform.platform(),
         "accelcore": accelcore.__version__,
+        "git": git_state(),
         **versions,
     }
 
