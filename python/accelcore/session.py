@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import hashlib
 import math
+import os
 import tomllib
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -181,6 +183,8 @@ class Session:
         The session folder, when read from disk.
     decimation_factor : int
         Raw samples per block.
+    file_sha256 : dict of str to str
+        SHA-256 of ``session.toml`` and every run file, taken while reading them.
     """
 
     runs: tuple[Run, ...]
@@ -190,6 +194,7 @@ class Session:
     serial: str | None = None
     path: str | None = None
     decimation_factor: int = 10
+    file_sha256: dict[str, str] = field(default_factory=dict)
 
     @property
     def orientations(self) -> tuple[str, ...]:
@@ -234,18 +239,11 @@ class Session:
                 )
 
     def file_hashes(self) -> dict[str, str]:
-        """SHA-256 of ``session.toml`` and every run file, for provenance."""
-        if self.path is None:
-            return {}
-        files = [Path(self.path) / "session.toml"] + [Path(r.source) for r in self.runs if r.source]
-        out: dict[str, str] = {}
-        for f in files:
-            digest = hashlib.sha256()
-            with open(f, "rb") as fh:
-                for block in iter(lambda: fh.read(1 << 20), b""):
-                    digest.update(block)
-            out[f.name] = digest.hexdigest()
-        return out
+        """SHA-256 of ``session.toml`` and every run file, for provenance.
+
+        Computed while the session was read (the files as they were then).
+        """
+        return dict(self.file_sha256)
 
     @classmethod
     def from_arrays(
@@ -352,6 +350,14 @@ def _make_run(
     )
 
 
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
 def _check_units(units: object, where: str) -> str:
     if not isinstance(units, str) or units not in UNITS:
         raise SessionFormatError(f"{where}: units must be one of {', '.join(UNITS)}, got {units!r}")
@@ -439,7 +445,7 @@ def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: in
     run_tables = meta.get("run")
     if not isinstance(run_tables, list) or not run_tables:
         raise SessionFormatError(f"{where}: no [[run]] table; a session needs at least one run")
-    runs = []
+    specs: list[tuple[str, NDArray[np.float64], Path]] = []
     for i, table in enumerate(run_tables, start=1):
         if not isinstance(table, dict):
             raise SessionFormatError(f"{where}: [[run]] #{i} must be a table")
@@ -453,7 +459,10 @@ def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: in
         file = folder / str(table["file"])
         if not file.is_file():
             raise AccelcoreIOError(f"{file}: run file does not exist ({where}, [[run]] #{i})")
-        data = read_run(
+        specs.append((str(table["orientation"]).strip().upper(), gravity, file))
+
+    def read(file: Path) -> Any:
+        return read_run(
             str(file),
             delimiter=DELIMITERS[delimiter],
             time_column=columns["time"],
@@ -465,28 +474,33 @@ def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: in
             rate_hz=float(rate_hz),
             min_count=min_count,
         )
-        stats = RunStats(
-            n_rows=data.n_rows,
-            n_skipped_nonfinite=data.n_skipped_nonfinite,
-            n_truncated_rows=data.n_truncated_rows,
-            n_gaps=data.n_gaps,
-            max_interval_s=data.max_interval_s,
-            duration_s=data.last_time_s - data.first_time_s,
-            channel_min=data.channel_min,
-            channel_max=data.channel_max,
-            n_at_min=data.n_at_min,
-            n_at_max=data.n_at_max,
-        )
-        runs.append(
-            _make_run(
-                str(table["orientation"]).strip().upper(),
-                gravity,
-                data.blocks,
-                data.channel_names[3:],
-                str(file),
-                stats,
+
+    # The Rust reader releases the GIL and hashlib does for large blocks: read the
+    # runs and hash every file (provenance) on all cores at once.
+    files = [folder / "session.toml"] + [f for _, _, f in specs]
+    with ThreadPoolExecutor(max_workers=min(len(files), os.cpu_count() or 1)) as pool:
+        hashes = pool.map(_sha256, files)
+        results = pool.map(read, [f for _, _, f in specs])
+        runs = []
+        for (orientation, gravity, file), data in zip(specs, results, strict=True):
+            stats = RunStats(
+                n_rows=data.n_rows,
+                n_skipped_nonfinite=data.n_skipped_nonfinite,
+                n_truncated_rows=data.n_truncated_rows,
+                n_gaps=data.n_gaps,
+                max_interval_s=data.max_interval_s,
+                duration_s=data.last_time_s - data.first_time_s,
+                channel_min=data.channel_min,
+                channel_max=data.channel_max,
+                n_at_min=data.n_at_min,
+                n_at_max=data.n_at_max,
             )
-        )
+            runs.append(
+                _make_run(
+                    orientation, gravity, data.blocks, data.channel_names[3:], str(file), stats
+                )
+            )
+        file_sha256 = {f.name: h for f, h in zip(files, hashes, strict=True)}
     sensor = meta.get("sensor") or None
     serial = meta.get("serial") or None
     return Session(
@@ -497,4 +511,5 @@ def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: in
         serial=str(serial) if serial else None,
         path=str(folder),
         decimation_factor=decimation_factor,
+        file_sha256=file_sha256,
     )
