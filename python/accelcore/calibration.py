@@ -48,7 +48,7 @@ from accelcore.errors import (
     TemperatureRangeWarning,
 )
 from accelcore.model import AXES, Features, Term, base_terms, design_columns, evaluate_basis
-from accelcore.session import Session
+from accelcore.session import Run, Session
 
 __all__ = [
     "CALIBRATION_FORMAT",
@@ -780,6 +780,7 @@ class _Stacked:
     output: list[NDArray[np.float64]]
     weight: list[NDArray[np.float64]]
     run_index: list[int]
+    notes: list[str] = field(default_factory=list)
 
     @property
     def temperature_range_c(self) -> tuple[float, float]:
@@ -787,19 +788,44 @@ class _Stacked:
         return float(temps.min()), float(temps.max())
 
 
+def block_weights(run: Run, robust: bool = True) -> tuple[NDArray[np.float64], str | None]:
+    """Least-squares weight of each decimated block of a run, and a note on what was left out.
+
+    A block mean of ``count`` samples has variance ``sigma² / count``, so its
+    weight is its count. With ``robust``, spikes and blocks clipped at a rail
+    (:func:`accelcore.quality.excluded_blocks`) get weight 0.
+    """
+    weight = run.count.astype(np.float64)
+    if not robust:
+        return weight, None
+    from accelcore.quality import excluded_blocks
+
+    mask, n_spikes, n_clipped = excluded_blocks(run)
+    if not mask.any():
+        return weight, None
+    weight[mask] = 0.0
+    parts = [f"{n} spike block(s)" for n in (n_spikes,) if n] + [
+        f"{n} clipped block(s)" for n in (n_clipped,) if n
+    ]
+    return weight, f"{run.label}: left out {' and '.join(parts)} of {len(run)}"
+
+
 def stack_session(
     session: Session,
     t_ref_c: float,
     window_c: tuple[float, float] | None,
     runs: Sequence[int] | None = None,
+    robust: bool = True,
 ) -> _Stacked:
     """Per run: features, gravity, output and weights of the samples inside the window.
 
     Features (elapsed time, lagged temperature) are computed on the whole run
     first and then cut to the window, so a lag filter sees the run's history.
+    With ``robust``, spikes and clipped blocks get weight 0 (see :func:`block_weights`).
     """
     feats: list[Features] = []
     grav, out, wts, idx = [], [], [], []
+    notes: list[str] = []
     for i, run in enumerate(session.runs):
         if runs is not None and i not in runs:
             continue
@@ -811,10 +837,13 @@ def stack_session(
             keep = (run.temperature_c >= window_c[0]) & (run.temperature_c <= window_c[1])
         if not keep.any():
             continue
+        weight, note = block_weights(run, robust)
+        if note:
+            notes.append(note)
         feats.append(_CutFeatures.cut(whole, keep))
         grav.append(run.gravity_g)
         out.append(run.output[keep])
-        wts.append(run.count[keep].astype(np.float64))
+        wts.append(weight[keep])
         idx.append(i)
     if not feats:
         lo, hi = window_c if window_c else (-math.inf, math.inf)
@@ -822,7 +851,7 @@ def stack_session(
             f"no decimated sample lies in the window {lo}…{hi} °C; widen window_c or log a "
             "sweep that covers it"
         )
-    return _Stacked(feats, grav, out, wts, idx)
+    return _Stacked(feats, grav, out, wts, idx, notes)
 
 
 class _CutFeatures(Features):
@@ -967,13 +996,14 @@ def _fit_joint(
     window_c: tuple[float, float] | None,
     references: Mapping[str, float] | None = None,
     runs: Sequence[int] | None = None,
+    robust: bool = True,
 ) -> tuple[dict[str, AxisModel], list[str], list[str], tuple[float, float], dict[str, float]]:
-    data = stack_session(session, t_ref_c, window_c, runs)
+    data = stack_session(session, t_ref_c, window_c, runs, robust)
     nominal = nominal_sensitivity(session.units, session.sensor)
     refs = dict(references) if references is not None else _extra_references(session, terms)
     axes: dict[str, AxisModel] = {}
     not_identified: list[str] = []
-    notes: list[str] = []
+    notes: list[str] = list(data.notes)
     for i, a in enumerate(AXES):
         model, fixed, axis_notes = fit_axis(
             a, terms[a], data, None if nominal is None else nominal[i], refs
@@ -989,14 +1019,20 @@ def _fit_paper(
     t_ref_c: float,
     window_c: tuple[float, float],
     bin_width_c: float,
+    robust: bool = True,
 ) -> tuple[dict[str, AxisModel], list[str], list[str], tuple[float, float]]:
     """Equations 8–10 per temperature bin, then line fits (the seed paper's method)."""
     binners: dict[str, core.TemperatureBinner] = {}
+    excluded: list[str] = []
     for run in session.runs:
         b = core.TemperatureBinner(
             lo_c=window_c[0], hi_c=window_c[1], width_c=bin_width_c, n_channels=3
         )
-        b.push(run.time_s, run.temperature_c, run.output)
+        weight, note = block_weights(run, robust)
+        if note:
+            excluded.append(note)
+        use = weight > 0
+        b.push(run.time_s[use], run.temperature_c[use], run.output[use])
         if run.orientation in binners:
             binners[run.orientation].merge(b)  # repeat sweeps of one orientation
         else:
@@ -1004,7 +1040,7 @@ def _fit_paper(
     stats = {o: b.finish() for o, b in binners.items()}
     axes: dict[str, AxisModel] = {}
     not_identified: list[str] = []
-    notes: list[str] = []
+    notes: list[str] = excluded
     t_lo, t_hi = math.inf, -math.inf
     for i, a in enumerate(AXES):
         plus, minus = stats.get(f"O{a.upper()}+"), stats.get(f"O{a.upper()}-")
@@ -1078,6 +1114,7 @@ def calibrate(
     window_c: tuple[float, float] | None = (0.0, 60.0),
     bin_width_c: float = 0.5,
     terms: Mapping[str, Sequence[Term]] | None = None,
+    robust: bool = True,
 ) -> Calibration:
     """Calibrate zero-g offset and sensitivity against temperature.
 
@@ -1096,6 +1133,10 @@ def calibrate(
         Temperature bin width of the paper's method, °C.
     terms : mapping of axis to sequence of Term, optional
         Model terms of the joint fit; default :func:`accelcore.model.base_terms`.
+    robust : bool, default True
+        Leave out decimated blocks that are spikes or clipped at a rail
+        (:func:`accelcore.quality.excluded_blocks`); what was left out is listed in
+        :attr:`Calibration.notes`. Clean data loses nothing.
 
     Returns
     -------
@@ -1116,18 +1157,19 @@ def calibrate(
         "window_c": None if window_c is None else list(window_c),
         "bin_width_c": bin_width_c,
         "decimation_factor": session.decimation_factor,
+        "robust": robust,
     }
     refs: dict[str, float] = {}
     if method == "paper":
         if terms is not None:
             raise ParameterError("terms= applies to method='joint' only")
         axes, not_identified, notes, t_range = _fit_paper(
-            session, t_ref_c, window_c or (-273.15, 1000.0), bin_width_c
+            session, t_ref_c, window_c or (-273.15, 1000.0), bin_width_c, robust
         )
     else:
         model_terms = {a: tuple(terms[a]) if terms and a in terms else base_terms(a) for a in AXES}
         axes, not_identified, notes, t_range, refs = _fit_joint(
-            session, model_terms, t_ref_c, window_c
+            session, model_terms, t_ref_c, window_c, robust=robust
         )
     provenance: dict[str, Any] = {
         "accelcore_version": __version__,

@@ -62,6 +62,7 @@ from accelcore.calibration import (
     Calibration,
     _CutFeatures,
     _Stacked,
+    block_weights,
     calibrate,
     fit_axis,
     nominal_sensitivity,
@@ -503,6 +504,8 @@ class _Engine:
                 inside = np.ones(len(run), dtype=bool)
             else:
                 inside = (run.temperature_c >= window[0]) & (run.temperature_c <= window[1])
+            # Same weights as the calibration: spikes and clipped blocks left out.
+            weight, _ = block_weights(run, robust=bool(base.options.get("robust", True)))
             for leg in range(len(kinds)):
                 keep = inside & (legs == leg)
                 if np.count_nonzero(keep) < 2:
@@ -510,7 +513,7 @@ class _Engine:
                 feats.append(_CutFeatures.cut(whole, keep))
                 grav.append(run.gravity_g)
                 out.append(run.output[keep])
-                wts.append(run.count[keep].astype(np.float64))
+                wts.append(weight[keep])
                 run_idx.append(i)
                 part_run.append(i)
                 part_leg.append(leg)

@@ -43,7 +43,7 @@ from accelcore.errors import DataQualityWarning
 if TYPE_CHECKING:
     from accelcore.session import Run, Session
 
-__all__ = ["QualityIssue", "check_session"]
+__all__ = ["QualityIssue", "check_session", "excluded_blocks"]
 
 AXES = ("x", "y", "z")
 #: Robust standard deviations per unit of median absolute deviation (normal data).
@@ -432,3 +432,52 @@ def _check_temperature(
                 )
             )
     return out
+
+
+def excluded_blocks(
+    run: Run,
+    *,
+    outlier_z: float = 8.0,
+    outlier_window: int = 9,
+    clip_fraction: float = 0.002,
+    clip_min_samples: int = 20,
+    clip_min_blocks: int = 3,
+) -> tuple[NDArray[np.bool_], int, int]:
+    """Decimated blocks a fit should leave out: spikes, and output clipped at a rail.
+
+    A spike is a block of x, y or z whose robust z-score against a running
+    median of ``outlier_window`` blocks exceeds ``outlier_z`` (the same test as
+    :func:`check_session`; white noise reaches 8 robust sigma about once in
+    10^15 blocks, so clean data loses nothing). On a channel that
+    :func:`check_session` reports as clipped, every block sitting on the rail and
+    its neighbours (which hold partly clipped samples) are left out.
+
+    Returns
+    -------
+    mask : ndarray of bool
+        True for the blocks to leave out.
+    n_spikes, n_clipped : int
+        How many blocks each reason removed.
+    """
+    n = len(run)
+    spikes = np.zeros(n, dtype=bool)
+    clipped = np.zeros(n, dtype=bool)
+    if n >= 2 * outlier_window:
+        for c in range(3):
+            y = run.output[:, c]
+            resid = y - _running_median(y, outlier_window)
+            sigma = _robust_sigma(resid)
+            if sigma > 0.0:
+                spikes |= np.abs(resid) > outlier_z * sigma
+    for issue in _check_clipping(run, clip_fraction, clip_min_samples, clip_min_blocks):
+        c = _channel_names(run).index(issue.channel or "")
+        stats = run.stats
+        for value in (float(stats.channel_min[c]), float(stats.channel_max[c])):
+            on_rail = np.abs(run.output[:, c] - value) <= 1e-12 * max(1.0, abs(value))
+            near = on_rail.copy()
+            near[1:] |= on_rail[:-1]
+            near[:-1] |= on_rail[1:]
+            clipped |= near
+    n_clipped = int(np.count_nonzero(clipped))
+    n_spikes = int(np.count_nonzero(spikes & ~clipped))
+    return spikes | clipped, n_spikes, n_clipped

@@ -308,10 +308,15 @@ class Session:
             dec.push(time_s, table[names["temperature"]], channels)
             blocks = dec.finish()
             finite = time_s[np.isfinite(time_s)]
+            lo, hi, at_lo, at_hi = _channel_ranges(channels)
             stats = RunStats(
                 n_rows=int(time_s.shape[0]),
                 n_skipped_nonfinite=dec.n_skipped_nonfinite,
                 duration_s=float(finite[-1] - finite[0]) if finite.size else 0.0,
+                channel_min=lo,
+                channel_max=hi,
+                n_at_min=at_lo,
+                n_at_max=at_hi,
             )
             built.append(
                 _make_run(orientation.strip().upper(), gravity, blocks, extra_names, None, stats)
@@ -325,6 +330,21 @@ class Session:
             path=None,
             decimation_factor=decimation_factor,
         )
+
+
+def _channel_ranges(
+    channels: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.uint64], NDArray[np.uint64]]:
+    """Per column: finite min and max and how many samples sit exactly on each (clipping)."""
+    masked = np.where(np.isfinite(channels), channels, np.nan)
+    with np.errstate(all="ignore"):
+        any_finite = np.isfinite(masked).any(axis=0)
+        safe = np.where(any_finite, 0.0, 1.0)  # all-NaN columns: report inf, no warning
+        lo = np.where(any_finite, np.nanmin(np.where(any_finite, masked, safe), axis=0), np.inf)
+        hi = np.where(any_finite, np.nanmax(np.where(any_finite, masked, safe), axis=0), -np.inf)
+    at_lo = (masked == lo).sum(axis=0).astype(np.uint64)
+    at_hi = (masked == hi).sum(axis=0).astype(np.uint64)
+    return lo, hi, at_lo, at_hi
 
 
 def _make_run(

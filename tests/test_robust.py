@@ -1,0 +1,91 @@
+"""Spikes and output clipped at a rail are left out of the fit, and said so."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from accelcore import Session, calibrate, simulate
+from accelcore.quality import excluded_blocks
+
+SENSOR = "ADXL335"
+
+
+def _session(columns_of: dict[str, dict[str, np.ndarray]]) -> Session:
+    return Session.from_arrays(list(columns_of.items()), units="V", rate_hz=20.0, sensor=SENSOR)
+
+
+@pytest.fixture(scope="module")
+def sim() -> simulate.SimulatedArrays:
+    return simulate.arrays(SENSOR, seed=41, duration_h=1.0, orientations=("OZ+", "OZ-"))
+
+
+def _columns(sim: simulate.SimulatedArrays) -> dict[str, dict[str, np.ndarray]]:
+    return {r.orientation: {k: v.copy() for k, v in r.columns.items()} for r in sim.runs}
+
+
+def _z_tempcos(cal: object) -> tuple[float, float, float, float]:
+    s = cal.axis("z")  # type: ignore[attr-defined]
+    return (
+        s.offset_tc_mg_per_c,
+        s.offset_tc_mg_per_c_se,
+        s.sensitivity_tc_pct_per_c,
+        s.sensitivity_tc_pct_per_c_se,
+    )
+
+
+def test_clean_data_loses_nothing(sim: simulate.SimulatedArrays) -> None:
+    session = _session(_columns(sim))
+    for run in session.runs:
+        mask, n_spikes, n_clipped = excluded_blocks(run)
+        assert (n_spikes, n_clipped) == (0, 0) and not mask.any()
+    cal = calibrate(session)
+    assert not any("left out" in n for n in cal.notes)
+
+
+def test_spikes_are_left_out_and_the_fit_stays_on_the_truth(
+    sim: simulate.SimulatedArrays,
+) -> None:
+    cols = _columns(sim)
+    rng = np.random.default_rng(3)
+    z = cols["OZ+"]["z"]
+    hot = np.flatnonzero(cols["OZ+"]["temp_c"] > 45)
+    starts = rng.choice(hot[:-20], size=60, replace=False)
+    for s in starts:  # 60 bursts of 5 raw samples, +0.3 V (1 g): a loose connector
+        z[s : s + 5] += 0.3
+    session = _session(cols)
+    truth = (sim.truth.offset_tc_mg_per_c[2], sim.truth.sensitivity_tc_pct_per_c[2])
+    robust = calibrate(session)
+    plain = calibrate(session, robust=False)
+    off, off_se, sens, sens_se = _z_tempcos(robust)
+    # With the spike blocks out, the estimates are within 5 standard errors of the truth
+    # (about 20 such checks in this file: a false failure has odds below 1e-4).
+    assert abs(off - truth[0]) <= 5 * off_se
+    assert abs(sens - truth[1]) <= 5 * sens_se
+    # Without, the bursts pull the hot end up: the offset tempco is off by many se.
+    p_off, p_off_se, _, _ = _z_tempcos(plain)
+    assert abs(p_off - truth[0]) > 10 * p_off_se
+    note = next(n for n in robust.notes if "left out" in n)
+    assert "spike block(s)" in note and "OZ+" in note
+
+
+def test_clipped_output_is_left_out(sim: simulate.SimulatedArrays) -> None:
+    cols = _columns(sim)
+    z, temp = cols["OZ+"]["z"], cols["OZ+"]["temp_c"]
+    # Above 50 °C a fault drives the output 1 V up, past the ADC's rail: clipped there.
+    rail = float(z.max()) + 0.2
+    z[temp > 50] += 1.0
+    np.minimum(z, rail, out=z)
+    session = _session(cols)
+    run = session.runs[0]
+    mask, _, n_clipped = excluded_blocks(run)
+    assert n_clipped >= 0.09 * len(run)
+    # Every block left unmasked is below the rail (partly clipped neighbours are out too).
+    assert np.all(run.output[~mask, 2] < rail)
+    truth = sim.truth.offset_tc_mg_per_c[2]
+    off, off_se, _, _ = _z_tempcos(calibrate(session))
+    p_off, p_off_se, _, _ = _z_tempcos(calibrate(session, robust=False))
+    assert abs(off - truth) <= 5 * off_se
+    assert abs(p_off - truth) > 20 * p_off_se
+    paper = calibrate(session, method="paper")
+    assert any("clipped block(s)" in n for n in paper.notes)
