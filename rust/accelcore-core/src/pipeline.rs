@@ -139,7 +139,8 @@ pub struct FusedPipeline {
     /// A block (from a merge) at or before the decimator's first block.
     pending: Option<Block>,
     binner: TemperatureBinner,
-    fits: Vec<LeastSquares>,
+    /// Line fits of every channel against `[1, T - t_ref]`, one shared factor (None: no channel).
+    fit: Option<LeastSquares>,
     /// Rows and skipped rows of decimators merged away.
     extra_samples: u64,
     extra_skipped: u64,
@@ -147,10 +148,9 @@ pub struct FusedPipeline {
     time_range: Option<(f64, f64)>,
     n_blocks: u64,
     n_blocks_dropped: u64,
-    /// Scratch for the fits, reused: design `[1, T - t_ref]`, weights, one response column.
+    /// Scratch for the fits, reused: design `[1, T - t_ref]` and weights.
     design: Vec<f64>,
     weights: Vec<f64>,
-    response: Vec<f64>,
 }
 
 impl FusedPipeline {
@@ -180,16 +180,19 @@ impl FusedPipeline {
         Decimator::new(config.decimator.clone())?;
         let binner = TemperatureBinner::new(config.binner.clone())?;
         let names = Some(vec!["offset".to_string(), "slope_per_c".to_string()]);
-        let fits = (0..nc)
-            .map(|_| LeastSquares::new(2, names.clone()))
-            .collect::<Result<Vec<_>>>()?;
+        // One factor for every channel: they share the design [1, T - t_ref].
+        let fit = if nc > 0 {
+            Some(LeastSquares::with_responses(2, nc, names)?)
+        } else {
+            None
+        };
         Ok(Self {
             config,
             decimator,
             head: None,
             pending: None,
             binner,
-            fits,
+            fit,
             extra_samples: 0,
             extra_skipped: 0,
             time_range: None,
@@ -197,7 +200,6 @@ impl FusedPipeline {
             n_blocks_dropped: 0,
             design: Vec::new(),
             weights: Vec::new(),
-            response: Vec::new(),
         })
     }
 
@@ -311,8 +313,8 @@ impl FusedPipeline {
         };
         let mut binner = early.binner.clone();
         binner.merge(&late.binner)?;
-        let mut fits = early.fits.clone();
-        for (f, g) in fits.iter_mut().zip(&late.fits) {
+        let mut fit = early.fit.clone();
+        if let (Some(f), Some(g)) = (fit.as_mut(), late.fit.as_ref()) {
             f.merge(g)?;
         }
         // Held-back blocks in time order; the late piece's open block stays in its decimator.
@@ -333,7 +335,7 @@ impl FusedPipeline {
             head: None,
             pending: None,
             binner,
-            fits,
+            fit,
             extra_samples: early.n_samples().saturating_add(late.extra_samples),
             extra_skipped: early
                 .n_skipped_nonfinite()
@@ -346,7 +348,6 @@ impl FusedPipeline {
             n_blocks_dropped: early.n_blocks_dropped.saturating_add(late.n_blocks_dropped),
             design: Vec::new(),
             weights: Vec::new(),
-            response: Vec::new(),
         };
         let open_index = open_blocks(&merged.decimator).first().map(|b| b.index);
         let mut rest = seq.into_iter();
@@ -386,11 +387,12 @@ impl FusedPipeline {
             done.emit(b)?;
         }
         let binned = done.binner.finish()?;
-        let fits = done
-            .fits
-            .iter()
-            .map(LeastSquares::finish)
-            .collect::<Result<Vec<_>>>()?;
+        let fits = match &done.fit {
+            Some(fit) => (0..fit.n_responses())
+                .map(|j| fit.finish_response(j))
+                .collect::<Result<Vec<_>>>()?,
+            None => Vec::new(),
+        };
         Ok(PipelineResult {
             binned,
             fits,
@@ -520,11 +522,8 @@ impl FusedPipeline {
                     expected: 2 * n,
                     got: self.design.len(),
                 })?;
-            for (j, fit) in self.fits.iter_mut().enumerate() {
-                self.response.clear();
-                self.response
-                    .extend(channels.iter().skip(j).step_by(nc).copied());
-                fit.push(design, &self.response, Some(&self.weights))?;
+            if let Some(fit) = self.fit.as_mut() {
+                fit.push_multi(design, view, Some(&self.weights))?;
             }
         }
         self.binner.push(time_s, temperature_c, view)?;

@@ -143,12 +143,14 @@ pub struct LstsqSolution {
 #[derive(Debug, Clone)]
 pub struct LeastSquares {
     n_columns: usize,
+    /// Right-hand sides sharing the design (1 for [`LeastSquares::new`]).
+    n_responses: usize,
     column_names: Vec<String>,
-    /// Augmented triangle `[R | z]`, row-major with row stride `n_columns + 1`.
-    /// Entries left of the diagonal are never touched and stay zero.
+    /// Augmented triangle `[R | Z]`, row-major with row stride
+    /// `n_columns + n_responses`. Entries left of the diagonal stay zero.
     rz: Vec<f64>,
-    /// Weighted residual sum of squares.
-    rss: f64,
+    /// Weighted residual sum of squares, one per response.
+    rss: Vec<f64>,
     /// Per-column `sum_i w_i x_ij^2`.
     column_sum_squares: Vec<f64>,
     /// Rows with non-zero weight.
@@ -168,6 +170,24 @@ impl LeastSquares {
     /// `column_names`, when given, must hold `n_columns` distinct names; the
     /// default is `x0`, `x1`, ...
     pub fn new(n_columns: usize, column_names: Option<Vec<String>>) -> Result<Self> {
+        Self::with_responses(n_columns, 1, column_names)
+    }
+
+    /// Create an empty problem with `n_columns` unknowns and `n_responses`
+    /// right-hand sides that share the design (1..=64 each): one factor `R`
+    /// serves every response, so fitting `m` channels against the same
+    /// regressors costs one QR update per row instead of `m`.
+    pub fn with_responses(
+        n_columns: usize,
+        n_responses: usize,
+        column_names: Option<Vec<String>>,
+    ) -> Result<Self> {
+        if n_responses == 0 || n_responses > MAX_COLUMNS {
+            return Err(Error::InvalidParameter {
+                name: "n_responses",
+                reason: format!("must be in 1..={MAX_COLUMNS}, got {n_responses}"),
+            });
+        }
         if n_columns == 0 || n_columns > MAX_COLUMNS {
             return Err(Error::InvalidParameter {
                 name: "n_columns",
@@ -194,12 +214,13 @@ impl LeastSquares {
                 names
             }
         };
-        let width = n_columns + 1;
+        let width = n_columns + n_responses;
         Ok(Self {
             n_columns,
+            n_responses,
             column_names,
             rz: vec![0.0; n_columns * width],
-            rss: 0.0,
+            rss: vec![0.0; n_responses],
             column_sum_squares: vec![0.0; n_columns],
             n_rows: 0,
             rows_seen: 0,
@@ -229,6 +250,29 @@ impl LeastSquares {
         response: &[f64],
         weights: Option<&[f64]>,
     ) -> Result<()> {
+        if self.n_responses != 1 {
+            return Err(Error::Shape {
+                what: "responses (use push_multi)",
+                expected: self.n_responses,
+                got: 1,
+            });
+        }
+        let responses =
+            ArrayView2::from_shape((response.len(), 1), response).map_err(|_| Error::Shape {
+                what: "response",
+                expected: design.nrows(),
+                got: response.len(),
+            })?;
+        self.push_multi(design, responses, weights)
+    }
+
+    /// Push rows with `n_responses` right-hand sides: `responses` is (n, m).
+    pub fn push_multi(
+        &mut self,
+        design: ArrayView2<'_, f64>,
+        responses: ArrayView2<'_, f64>,
+        weights: Option<&[f64]>,
+    ) -> Result<()> {
         let p = self.n_columns;
         let (n, ncols) = design.dim();
         if ncols != p {
@@ -238,11 +282,18 @@ impl LeastSquares {
                 got: ncols,
             });
         }
-        if response.len() != n {
+        if responses.nrows() != n {
             return Err(Error::Shape {
                 what: "response",
                 expected: n,
-                got: response.len(),
+                got: responses.nrows(),
+            });
+        }
+        if responses.ncols() != self.n_responses {
+            return Err(Error::Shape {
+                what: "response columns",
+                expected: self.n_responses,
+                got: responses.ncols(),
             });
         }
         if let Some(w) = weights {
@@ -257,14 +308,14 @@ impl LeastSquares {
         // Fast vectorisable screen; only if it fails, find the first bad value in row order.
         let finite = |v: &f64| v.is_finite();
         let clean = design.iter().all(finite)
-            && response.iter().all(finite)
+            && responses.iter().all(finite)
             && weights.is_none_or(|w| w.iter().all(|&w| w.is_finite() && w >= 0.0));
         if !clean {
-            self.first_invalid(design, response, weights)?;
+            self.first_invalid(design, responses, weights)?;
         }
         match design.as_slice() {
-            Some(flat) => self.accumulate(flat.chunks_exact(p), response, weights),
-            None => self.accumulate(design.rows().into_iter(), response, weights),
+            Some(flat) => self.accumulate(flat.chunks_exact(p), responses, weights),
+            None => self.accumulate(design.rows().into_iter(), responses, weights),
         }
         Ok(())
     }
@@ -273,11 +324,11 @@ impl LeastSquares {
     fn accumulate<'a, R: IntoIterator<Item = &'a f64>>(
         &mut self,
         rows: impl Iterator<Item = R>,
-        response: &[f64],
+        responses: ArrayView2<'_, f64>,
         weights: Option<&[f64]>,
     ) {
         let p = self.n_columns;
-        let width = p + 1;
+        let width = p + self.n_responses;
         let Self {
             rz,
             rss,
@@ -290,7 +341,7 @@ impl LeastSquares {
         } = self;
         let mut accepted = 0_u64;
         let mut filled = 0_usize;
-        for (k, (row, &y)) in rows.zip(response).enumerate() {
+        for (k, (row, ys)) in rows.zip(responses.rows()).enumerate() {
             let w = weights.map_or(1.0, |w| w[k]);
             if w == 0.0 {
                 continue;
@@ -302,7 +353,9 @@ impl LeastSquares {
                 *s = v;
                 *css += v * v;
             }
-            dst[p] = sw * y;
+            for (d, &y) in dst[p..].iter_mut().zip(ys) {
+                *d = sw * y;
+            }
             filled += 1;
             if filled == BLOCK_ROWS {
                 rotate_block_in(rz, diag_sq, p, block, 0, rss);
@@ -314,7 +367,7 @@ impl LeastSquares {
             rotate_block_in(rz, diag_sq, p, &mut block[..filled * width], 0, rss);
         }
         *n_rows += accepted;
-        *rows_seen += response.len() as u64;
+        *rows_seen += responses.nrows() as u64;
     }
 
     /// The first non-finite value or negative weight of a chunk, in row order
@@ -322,10 +375,10 @@ impl LeastSquares {
     fn first_invalid(
         &self,
         design: ArrayView2<'_, f64>,
-        response: &[f64],
+        responses: ArrayView2<'_, f64>,
         weights: Option<&[f64]>,
     ) -> Result<()> {
-        for (k, (row, &y)) in design.rows().into_iter().zip(response).enumerate() {
+        for (k, (row, ys)) in design.rows().into_iter().zip(responses.rows()).enumerate() {
             let global = self.rows_seen + k as u64;
             if let Some(column) = row.iter().position(|v| !v.is_finite()) {
                 return Err(Error::NonFinite {
@@ -334,11 +387,11 @@ impl LeastSquares {
                     column,
                 });
             }
-            if !y.is_finite() {
+            if let Some(column) = ys.iter().position(|v| !v.is_finite()) {
                 return Err(Error::NonFinite {
                     what: "response",
                     row: global,
-                    column: 0,
+                    column,
                 });
             }
             if let Some(w) = weights {
@@ -367,6 +420,14 @@ impl LeastSquares {
     /// result equals one pass over both streams up to rounding. Rows of
     /// `other` count as pushed after the rows of `self` for error reporting.
     pub fn merge(&mut self, other: &LeastSquares) -> Result<()> {
+        if other.n_responses != self.n_responses {
+            return Err(Error::Incompatible {
+                reason: format!(
+                    "n_responses differ: {} vs {}",
+                    self.n_responses, other.n_responses
+                ),
+            });
+        }
         if other.n_columns != self.n_columns {
             return Err(Error::Incompatible {
                 reason: format!(
@@ -384,8 +445,8 @@ impl LeastSquares {
             });
         }
         let p = self.n_columns;
-        let width = p + 1;
-        let mut extra = 0.0;
+        let width = p + self.n_responses;
+        let mut extra = vec![0.0; self.n_responses];
         for i in 0..p {
             let src = &other.rz[i * width..(i + 1) * width];
             if src[i..].iter().all(|&v| v == 0.0) {
@@ -395,7 +456,9 @@ impl LeastSquares {
             row.copy_from_slice(src);
             rotate_block_in(&mut self.rz, &mut self.diag_sq, p, row, i, &mut extra);
         }
-        self.rss += other.rss + extra;
+        for ((acc, &o), &e) in self.rss.iter_mut().zip(&other.rss).zip(&extra) {
+            *acc += o + e;
+        }
         for (a, b) in self
             .column_sum_squares
             .iter_mut()
@@ -421,8 +484,26 @@ impl LeastSquares {
     /// of rows pushed so far, `column` the offending column, `p` for the response),
     /// [`Error::RankDeficient`] naming every non-identifiable column.
     pub fn finish(&self) -> Result<LstsqSolution> {
+        self.finish_response(0)
+    }
+
+    /// Number of right-hand sides.
+    pub fn n_responses(&self) -> usize {
+        self.n_responses
+    }
+
+    /// Solve for response `j` (0-based) of a [`LeastSquares::with_responses`] problem;
+    /// errors as [`LeastSquares::finish`].
+    pub fn finish_response(&self, j: usize) -> Result<LstsqSolution> {
+        if j >= self.n_responses {
+            return Err(Error::InvalidParameter {
+                name: "response",
+                reason: format!("{j} is out of range: {} response(s)", self.n_responses),
+            });
+        }
         let p = self.n_columns;
-        let width = p + 1;
+        let width = p + self.n_responses;
+        let response_column = p + j;
         if self.n_rows == 0 {
             return Err(Error::Empty {
                 what: "least squares (no rows with non-zero weight)",
@@ -465,7 +546,7 @@ impl LeastSquares {
                 .zip(&coefficients[i + 1..])
                 .map(|(a, b)| a * b)
                 .sum();
-            coefficients[i] = (r_row[p] - dot) / r_row[i];
+            coefficients[i] = (r_row[response_column] - dot) / r_row[i];
         }
 
         // R^-1 (upper triangular), column by column: R u_k = e_k.
@@ -484,7 +565,7 @@ impl LeastSquares {
         let dof = self.n_rows - p as u64;
         let mut covariance = vec![f64::NAN; p * p];
         if dof > 0 {
-            let sigma2 = self.rss / dof as f64;
+            let sigma2 = self.rss[j] / dof as f64;
             // (R^-1 R^-T)_ab = sum_k Rinv_ak Rinv_bk, k >= max(a, b).
             for a in 0..p {
                 for b in a..p {
@@ -509,7 +590,7 @@ impl LeastSquares {
             column_names: self.column_names.clone(),
             coefficients,
             covariance,
-            residual_sum_squares: self.rss,
+            residual_sum_squares: self.rss[j],
             dof,
             n_rows: self.n_rows,
             condition_number: condition_number(&mut raw, p),
@@ -521,7 +602,7 @@ impl LeastSquares {
     /// overflowed or underflowed, uses instead the norm of column `j` of `R`
     /// (equal in exact arithmetic, as `Q` is orthogonal), summed with `hypot`.
     fn column_norms(&self) -> Vec<f64> {
-        let width = self.n_columns + 1;
+        let width = self.n_columns + self.n_responses;
         self.column_sum_squares
             .iter()
             .enumerate()
@@ -562,9 +643,9 @@ fn rotate_block_in(
     p: usize,
     block: &mut [f64],
     start: usize,
-    rss: &mut f64,
+    rss: &mut [f64],
 ) {
-    let width = p + 1;
+    let width = p + rss.len();
     for i in start..p {
         let r_row = &mut rz[i * width + i..(i + 1) * width];
         let mut d = diag_sq[i];
@@ -596,7 +677,9 @@ fn rotate_block_in(
         diag_sq[i] = d;
     }
     for row in block.chunks_exact(width) {
-        *rss += row[p] * row[p];
+        for (acc, &y) in rss.iter_mut().zip(&row[p..]) {
+            *acc += y * y;
+        }
     }
 }
 

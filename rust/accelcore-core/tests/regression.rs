@@ -1028,3 +1028,102 @@ fn push_throughput() {
         );
     }
 }
+
+#[test]
+fn several_responses_share_one_factor_and_equal_separate_fits() {
+    // Three channels against [1, dT]: the shared-R fit must give, bit for bit, what
+    // three single-response fits give (the same rotations act on every column).
+    let n = 500;
+    let temp: Vec<f64> = (0..n).map(|i| -2.0 + 0.134 * f64::from(i)).collect();
+    let mut design = Vec::with_capacity(2 * n as usize);
+    let mut ys = Vec::with_capacity(3 * n as usize);
+    let mut w = Vec::with_capacity(n as usize);
+    for (i, &t) in temp.iter().enumerate() {
+        design.extend([1.0, t - 25.0]);
+        let wobble = ((i * 7919) % 13) as f64 * 1e-4;
+        ys.extend([
+            1.5 + 1e-3 * t + wobble,
+            1.48 - 2e-4 * t - wobble,
+            1.84 + 5e-3 * t + wobble,
+        ]);
+        w.push(if i % 17 == 0 {
+            0.0
+        } else {
+            10.0 - (i % 3) as f64
+        });
+    }
+    let design = ndarray::ArrayView2::from_shape((n as usize, 2), &design).unwrap();
+    let responses = ndarray::ArrayView2::from_shape((n as usize, 3), &ys).unwrap();
+    let mut multi = LeastSquares::with_responses(2, 3, None).unwrap();
+    // Two chunks and a merge: still identical to one pass of each single fit.
+    let (d1, d2) = design.view().split_at(ndarray::Axis(0), 200);
+    let (r1, r2) = responses.view().split_at(ndarray::Axis(0), 200);
+    multi.push_multi(d1, r1, Some(&w[..200])).unwrap();
+    let mut rest = LeastSquares::with_responses(2, 3, None).unwrap();
+    rest.push_multi(d2, r2, Some(&w[200..])).unwrap();
+    multi.merge(&rest).unwrap();
+    for j in 0..3 {
+        let column: Vec<f64> = responses.column(j).to_vec();
+        let mut single = LeastSquares::new(2, None).unwrap();
+        single
+            .push(
+                design.slice_axis(ndarray::Axis(0), (..200).into()),
+                &column[..200],
+                Some(&w[..200]),
+            )
+            .unwrap();
+        let mut tail = LeastSquares::new(2, None).unwrap();
+        tail.push(
+            design.slice_axis(ndarray::Axis(0), (200..).into()),
+            &column[200..],
+            Some(&w[200..]),
+        )
+        .unwrap();
+        single.merge(&tail).unwrap();
+        let (a, b) = (multi.finish_response(j).unwrap(), single.finish().unwrap());
+        assert_eq!(a.coefficients, b.coefficients, "response {j}");
+        assert_eq!(
+            a.residual_sum_squares, b.residual_sum_squares,
+            "response {j}"
+        );
+        assert_eq!(a.covariance, b.covariance, "response {j}");
+    }
+    assert!(multi.finish_response(3).is_err());
+    assert_eq!(multi.n_responses(), 3);
+}
+
+#[test]
+fn several_responses_check_shapes_and_values() {
+    let mut multi = LeastSquares::with_responses(2, 3, None).unwrap();
+    let design = ndarray::Array2::<f64>::ones((4, 2));
+    let bad = ndarray::Array2::<f64>::ones((4, 2));
+    assert!(matches!(
+        multi.push_multi(design.view(), bad.view(), None),
+        Err(Error::Shape {
+            what: "response columns",
+            expected: 3,
+            got: 2
+        })
+    ));
+    assert!(matches!(
+        multi.push(design.view(), &[1.0; 4], None),
+        Err(Error::Shape { .. })
+    ));
+    let mut ys = ndarray::Array2::<f64>::ones((4, 3));
+    ys[[2, 1]] = f64::NAN;
+    assert!(matches!(
+        multi.push_multi(design.view(), ys.view(), None),
+        Err(Error::NonFinite {
+            what: "response",
+            row: 2,
+            column: 1
+        })
+    ));
+    assert_eq!(multi.n_rows(), 0);
+    assert!(LeastSquares::with_responses(2, 0, None).is_err());
+    let single = LeastSquares::new(2, None).unwrap();
+    assert!(matches!(
+        multi.merge(&single),
+        Err(Error::Incompatible { .. })
+    ));
+}
