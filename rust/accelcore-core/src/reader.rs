@@ -180,12 +180,194 @@ fn parse_error(path: &str, line: u64, column: u64, reason: String) -> Error {
 }
 
 /// Parse one cell; empty is NaN (missing).
+#[inline]
 fn parse_cell(cell: &[u8]) -> Option<f64> {
     let cell = cell.trim_ascii();
     if cell.is_empty() {
         return Some(f64::NAN);
     }
-    fast_float2::parse::<f64, _>(cell).ok()
+    parse_plain_decimal(cell).or_else(|| fast_float2::parse::<f64, _>(cell).ok())
+}
+
+/// Split and parse one row in a single pass over its bytes: most cells are plain
+/// decimals, parsed while scanning for the delimiter; any other cell is cut at the
+/// next delimiter (`memchr`) and given to [`parse_cell`]. Returns the number of
+/// fields (`fields.len() + 1` when there are more), or the index and text of a
+/// cell that is not a number. Empty cells are NaN, as in [`parse_cell`].
+fn parse_row<'a>(
+    text: &'a [u8],
+    delimiter: u8,
+    fields: &mut [f64],
+) -> std::result::Result<usize, (usize, &'a [u8])> {
+    let mut pos = 0;
+    for (i, slot) in fields.iter_mut().enumerate() {
+        let (value, end) = if let Some(fast) = scan_plain(text, pos, delimiter) {
+            fast
+        } else {
+            let end = memchr::memchr(delimiter, &text[pos..]).map_or(text.len(), |k| pos + k);
+            let cell = &text[pos..end];
+            (parse_cell(cell).ok_or((i, cell))?, end)
+        };
+        *slot = value;
+        if end >= text.len() {
+            return Ok(i + 1);
+        }
+        pos = end + 1;
+    }
+    Ok(fields.len() + 1)
+}
+
+/// The plain-decimal fast path of [`parse_plain_decimal`], scanning from `pos` to
+/// the delimiter or the end of the row. Returns the value and where it stopped.
+#[inline]
+fn scan_plain(text: &[u8], pos: usize, delimiter: u8) -> Option<(f64, usize)> {
+    let mut k = pos;
+    let negative = match text.get(k) {
+        Some(b'-') => {
+            k += 1;
+            true
+        }
+        Some(b'+') => {
+            k += 1;
+            false
+        }
+        _ => false,
+    };
+    let mut mantissa: u64 = 0;
+    let mut n_digits = 0usize;
+    let mut fraction_digits = 0usize;
+    let mut seen_point = false;
+    while let Some(&b) = text.get(k) {
+        let d = b.wrapping_sub(b'0');
+        if d < 10 {
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
+            n_digits += 1;
+            fraction_digits += usize::from(seen_point);
+        } else if b == b'.' && !seen_point {
+            seen_point = true;
+        } else if b == delimiter {
+            break;
+        } else {
+            return None;
+        }
+        k += 1;
+    }
+    if n_digits == 0 || n_digits > 15 {
+        return None;
+    }
+    let value = mantissa as f64 / POW10[fraction_digits];
+    Some((if negative { -value } else { value }, k))
+}
+
+/// Exact powers of ten up to 10^15 (all exactly representable in f64).
+const POW10: [f64; 16] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+];
+
+/// Fast path for the cells logs are made of: `[+-]digits[.digits]` with at most
+/// 15 digits in all. The digits form an integer `m < 10^15 < 2^53` and the value
+/// is `m / 10^k` with both operands exact, so one correctly rounded IEEE division
+/// gives the correctly rounded decimal value (Clinger's fast path): bit for bit
+/// what a full parser returns. Anything else (exponents, more digits, `nan`,
+/// `inf`) returns None and goes to the full parser.
+#[inline]
+fn parse_plain_decimal(cell: &[u8]) -> Option<f64> {
+    let (negative, digits) = match cell.first() {
+        Some(b'-') => (true, &cell[1..]),
+        Some(b'+') => (false, &cell[1..]),
+        _ => (false, cell),
+    };
+    if digits.is_empty() || digits.len() > 16 {
+        return None;
+    }
+    let mut mantissa: u64 = 0;
+    let mut n_digits = 0usize;
+    let mut point: Option<usize> = None;
+    for (i, &b) in digits.iter().enumerate() {
+        let d = b.wrapping_sub(b'0');
+        if d < 10 {
+            mantissa = mantissa * 10 + u64::from(d);
+            n_digits += 1;
+        } else if b == b'.' && point.is_none() {
+            point = Some(i);
+        } else {
+            return None;
+        }
+    }
+    if n_digits == 0 || n_digits > 15 {
+        return None;
+    }
+    let fraction_digits = point.map_or(0, |p| digits.len() - p - 1);
+    let value = mantissa as f64 / POW10[fraction_digits];
+    Some(if negative { -value } else { value })
+}
+
+/// Lines straight out of a large block buffer: no copy per line, and the line
+/// end is found with `memchr` (SIMD) rather than byte by byte. A line longer than
+/// [`MAX_LINE_BYTES`] is an error, as with [`read_line`].
+struct BlockLines<R> {
+    reader: R,
+    buf: Vec<u8>,
+    start: usize,
+    end: usize,
+    eof: bool,
+}
+
+impl<R: Read> BlockLines<R> {
+    fn new(reader: R) -> Self {
+        Self {
+            reader,
+            buf: vec![0; MAX_LINE_BYTES + (1 << 16)],
+            start: 0,
+            end: 0,
+            eof: false,
+        }
+    }
+
+    /// The next line including its `\n` (the last line may lack it), or None at the end.
+    fn next_line(&mut self, path: &str, line_no: u64) -> Result<Option<&[u8]>> {
+        loop {
+            if let Some(pos) = memchr::memchr(b'\n', &self.buf[self.start..self.end]) {
+                let line_start = self.start;
+                self.start += pos + 1;
+                return Ok(Some(&self.buf[line_start..self.start]));
+            }
+            if self.eof {
+                if self.start == self.end {
+                    return Ok(None);
+                }
+                let line_start = self.start;
+                self.start = self.end;
+                return Ok(Some(&self.buf[line_start..self.end]));
+            }
+            if self.end - self.start > MAX_LINE_BYTES {
+                return Err(parse_error(
+                    path,
+                    line_no,
+                    1,
+                    format!(
+                        "line longer than {MAX_LINE_BYTES} bytes: not a delimited text log \
+                         (binary data, or missing line ends?)"
+                    ),
+                ));
+            }
+            self.buf.copy_within(self.start..self.end, 0);
+            self.end -= self.start;
+            self.start = 0;
+            let n = loop {
+                match self.reader.read(&mut self.buf[self.end..]) {
+                    Ok(n) => break n,
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                    Err(e) => return Err(io_error(path, &e)),
+                }
+            };
+            if n == 0 {
+                self.eof = true;
+            } else {
+                self.end += n;
+            }
+        }
+    }
 }
 
 fn split_fields(line: &[u8], delimiter: u8) -> impl Iterator<Item = &[u8]> {
@@ -440,7 +622,6 @@ fn read_body<R: BufRead>(
     decimator: DecimatorConfig,
     allow_empty: bool,
 ) -> Result<RunData> {
-    let mut line = Vec::with_capacity(256);
     let mut line_no: u64 = first_line.unwrap_or(0);
     let columns = map_columns(path, &header, format)?;
     let n_fields = header.len();
@@ -456,24 +637,17 @@ fn read_body<R: BufRead>(
     let (mut first_time, mut last_time, mut max_interval) = (f64::NAN, f64::NAN, 0.0f64);
     let nominal_period = 1.0 / decimator.config().rate_hz;
     let time_field = columns.time as u64 + 1;
-    loop {
-        let n = read_line(&mut reader, &mut line, path, line_no + 1)?;
-        if n == 0 {
-            break;
-        }
+    let mut lines = BlockLines::new(&mut reader);
+    while let Some(line) = lines.next_line(path, line_no + 1)? {
         line_no += 1;
         let ends_with_newline = line.last() == Some(&b'\n');
-        let text = strip_line_end(&line);
+        let text = strip_line_end(line);
         if text.trim_ascii().is_empty() {
             continue;
         }
-        let mut count = 0usize;
-        for (i, cell) in split_fields(text, format.delimiter).enumerate() {
-            if i >= n_fields {
-                count = i + 1;
-                break;
-            }
-            let Some(value) = parse_cell(cell) else {
+        let count = match parse_row(text, format.delimiter, &mut fields) {
+            Ok(count) => count,
+            Err((i, cell)) => {
                 let shown = String::from_utf8_lossy(cell.trim_ascii());
                 let name = &header[i];
                 return Err(parse_error(
@@ -482,10 +656,8 @@ fn read_body<R: BufRead>(
                     i as u64 + 1,
                     format!("column '{name}': '{shown}' is not a number"),
                 ));
-            };
-            fields[i] = value;
-            count = i + 1;
-        }
+            }
+        };
         if count != n_fields {
             if count < n_fields && !ends_with_newline {
                 n_truncated += 1;
@@ -831,4 +1003,131 @@ pub fn merge_runs(pieces: &[RunData], min_count: usize, rate_hz: f64) -> Result<
         });
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod plain_decimal_tests {
+    use super::parse_plain_decimal;
+    use proptest::prelude::*;
+
+    fn full(s: &str) -> Option<f64> {
+        fast_float2::parse::<f64, _>(s.as_bytes()).ok()
+    }
+
+    #[test]
+    fn examples_match_the_full_parser_bit_for_bit() {
+        for s in [
+            "0",
+            "-0",
+            "0.05",
+            "-1.906",
+            "1.496582",
+            "16714",
+            "-16534",
+            "+3.5",
+            "1.",
+            ".5",
+            "-.25",
+            "123456789012345",
+            "0.00000000000001",
+            "9.99999999999999",
+        ] {
+            let fast = parse_plain_decimal(s.as_bytes()).expect(s);
+            assert_eq!(fast.to_bits(), full(s).unwrap().to_bits(), "{s}");
+        }
+    }
+
+    #[test]
+    fn other_text_goes_to_the_full_parser() {
+        for s in [
+            "",
+            ".",
+            "-",
+            "1e5",
+            "nan",
+            "inf",
+            "1.2.3",
+            "1,5",
+            "1234567890123456",
+            "0x10",
+            "0.000000000000001",
+        ] {
+            assert!(parse_plain_decimal(s.as_bytes()).is_none(), "{s}");
+        }
+    }
+
+    #[test]
+    fn rows_parse_like_split_then_parse() {
+        let mut f = [0.0; 4];
+        assert_eq!(super::parse_row(b"1.5,-2,,nan", b',', &mut f), Ok(4));
+        assert_eq!(f[0], 1.5);
+        assert_eq!(f[1], -2.0);
+        assert!(f[2].is_nan() && f[3].is_nan());
+        assert_eq!(super::parse_row(b"1,2", b',', &mut f), Ok(2));
+        assert_eq!(super::parse_row(b"1,2,3,4,5", b',', &mut f), Ok(5));
+        assert_eq!(super::parse_row(b"1,2,", b',', &mut f), Ok(3));
+        assert_eq!(super::parse_row(b" 1.5 ;1e3", b';', &mut f), Ok(2));
+        assert_eq!(f[1], 1000.0);
+        assert_eq!(
+            super::parse_row(b"1,x2,3", b',', &mut f),
+            Err((1, &b"x2"[..]))
+        );
+    }
+
+    /// The obvious way: split at the delimiter, then parse each cell.
+    fn split_then_parse(text: &[u8], fields: &mut [f64]) -> Result<usize, usize> {
+        let mut count = 0;
+        for (i, cell) in super::split_fields(text, b',').enumerate() {
+            if i >= fields.len() {
+                return Ok(fields.len() + 1);
+            }
+            fields[i] = super::parse_cell(cell).ok_or(i)?;
+            count = i + 1;
+        }
+        Ok(count)
+    }
+
+    proptest! {
+        #[test]
+        fn one_pass_rows_equal_split_then_parse(
+            cells in proptest::collection::vec(
+                prop_oneof![
+                    "[+-]?[0-9]{1,12}(\\.[0-9]{0,6})?",
+                    "[+-]?[0-9]{1,3}\\.[0-9]{1,3}[eE][+-]?[0-9]{1,2}",
+                    Just(String::new()),
+                    Just(" 1.25 ".to_string()),
+                    Just("nan".to_string()),
+                    Just("-inf".to_string()),
+                    "[0-9]{16,20}",
+                    "[a-z.]{1,3}",
+                ],
+                1..8,
+            ),
+            n_fields in 1usize..8,
+        ) {
+            let row = cells.join(",");
+            let (mut a, mut b) = (vec![0.0; n_fields], vec![0.0; n_fields]);
+            let one = super::parse_row(row.as_bytes(), b',', &mut a).map_err(|(i, _)| i);
+            let two = split_then_parse(row.as_bytes(), &mut b);
+            prop_assert_eq!(one, two);
+            if let Ok(n) = one {
+                for k in 0..n.min(n_fields) {
+                    prop_assert_eq!(a[k].to_bits(), b[k].to_bits(), "{} field {}", row, k);
+                }
+            }
+        }
+
+        #[test]
+        fn random_decimals_match_the_full_parser(
+            negative in any::<bool>(),
+            int_part in "[0-9]{1,9}",
+            frac_part in "[0-9]{0,8}",
+        ) {
+            let s = format!("{}{}.{}", if negative { "-" } else { "" }, int_part, frac_part);
+            let fast = parse_plain_decimal(s.as_bytes());
+            if let Some(v) = fast {
+                prop_assert_eq!(v.to_bits(), full(&s).unwrap().to_bits(), "{}", s);
+            }
+        }
+    }
 }
