@@ -403,7 +403,8 @@ class FusedPipeline:
 
     Equals ``Decimator`` → ``finish`` → ``TemperatureBinner.push(blocks)`` and one
     ``LeastSquares(2)`` per channel on ``[1, T − t_ref_c]`` weighted by block counts
-    (up to rounding), but keeps only the open block, bins and ``R`` factors.
+    (up to rounding; the channels share one ``R`` factor, which gives the same bits as
+    separate fits), but keeps only the open block, the bins and that factor.
 
     Parameters
     ----------

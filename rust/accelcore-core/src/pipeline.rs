@@ -3,9 +3,11 @@
 //! A [`FusedPipeline`] streams raw `(time_s, temperature_c, channels…)` rows
 //! through a [`Decimator`]; every completed block (taken with
 //! [`Decimator::drain_completed`]) goes at once into a [`TemperatureBinner`]
-//! and into one [`LeastSquares`] per channel fitting
-//! `channel = a + b · (T − t_ref_c)` on the block means, weighted by the
-//! block's sample count. It computes what this composition computes:
+//! and into line fits `channel = a + b · (T − t_ref_c)` of every channel on the
+//! block means, weighted by the block's sample count. The channels share the
+//! design, so one [`LeastSquares::with_responses`] factor serves them all; its
+//! results are bit-identical to one [`LeastSquares`] per channel, so this computes
+//! what the composition computes:
 //!
 //! ```text
 //! blocks = Decimator(cfg).push(all rows).finish()

@@ -5,7 +5,7 @@ use ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
-use crate::gateway::{array1, array2, count, run_detached, slice_or_copy};
+use crate::gateway::{count, push_stream, run_detached};
 
 /// Fixed-width temperature binner (see `accelcore.core.TemperatureBinner` in the stubs).
 #[pyclass(name = "TemperatureBinner", module = "accelcore.core")]
@@ -89,13 +89,10 @@ impl PyTemperatureBinner {
         temperature_c: &Bound<'_, PyAny>,
         channels: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
-        let time_s = array1(time_s, "time_s dimensions")?;
-        let temperature_c = array1(temperature_c, "temperature_c dimensions")?;
-        let channels = array2(channels, "channels dimensions")?;
-        let (time_s, temperature_c) = (slice_or_copy(&time_s), slice_or_copy(&temperature_c));
-        let channels = channels.as_array();
         let inner = &mut self.inner;
-        run_detached(py, || inner.push(&time_s, &temperature_c, channels))
+        push_stream(py, time_s, temperature_c, channels, |t, temp, ch| {
+            inner.push(t, temp, ch)
+        })
     }
 
     /// Merge another binner of the same configuration.

@@ -7,7 +7,7 @@ use numpy::{
 };
 use pyo3::prelude::*;
 
-use crate::gateway::{array1, array2, count, run_detached, slice_or_copy};
+use crate::gateway::{count, push_stream, run_detached};
 
 /// Time-aligned block-mean decimator (see `accelcore.core.Decimator` in the stubs).
 #[pyclass(name = "Decimator", module = "accelcore.core")]
@@ -161,13 +161,10 @@ impl PyDecimator {
         temperature_c: &Bound<'_, PyAny>,
         channels: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
-        let time_s = array1(time_s, "time_s dimensions")?;
-        let temperature_c = array1(temperature_c, "temperature_c dimensions")?;
-        let channels = array2(channels, "channels dimensions")?;
-        let (time_s, temperature_c) = (slice_or_copy(&time_s), slice_or_copy(&temperature_c));
-        let channels = channels.as_array();
         let inner = &mut self.inner;
-        run_detached(py, || inner.push(&time_s, &temperature_c, channels))
+        push_stream(py, time_s, temperature_c, channels, |t, temp, ch| {
+            inner.push(t, temp, ch)
+        })
     }
 
     /// Merge another decimator's state into this one.

@@ -5,6 +5,7 @@
 
 use std::borrow::Cow;
 
+use ndarray::ArrayView2;
 use numpy::{AllowTypeChange, PyArrayLike1, PyArrayLike2};
 use pyo3::prelude::*;
 
@@ -71,6 +72,28 @@ pub(crate) fn array1<'py>(obj: &Bound<'py, PyAny>, what: &'static str) -> PyResu
 pub(crate) fn array2<'py>(obj: &Bound<'py, PyAny>, what: &'static str) -> PyResult<In2<'py>> {
     obj.extract::<In2<'py>>()
         .map_err(|e| dimension_error(obj, 2, what, e))
+}
+
+/// Borrow one chunk of a stream — time (s), temperature (°C) and channels
+/// `(n, n_channels)` — and run `work` on it with the GIL released. Shared by every
+/// kernel's `push`, so all of them accept the same inputs and raise the same errors.
+pub(crate) fn push_stream<F>(
+    py: Python<'_>,
+    time_s: &Bound<'_, PyAny>,
+    temperature_c: &Bound<'_, PyAny>,
+    channels: &Bound<'_, PyAny>,
+    work: F,
+) -> PyResult<()>
+where
+    F: for<'a> FnOnce(&'a [f64], &'a [f64], ArrayView2<'a, f64>) -> accelcore_core::Result<()>
+        + Send,
+{
+    let time_s = array1(time_s, "time_s dimensions")?;
+    let temperature_c = array1(temperature_c, "temperature_c dimensions")?;
+    let channels = array2(channels, "channels dimensions")?;
+    let (time_s, temperature_c) = (slice_or_copy(&time_s), slice_or_copy(&temperature_c));
+    let channels = channels.as_array();
+    run_detached(py, || work(&time_s, &temperature_c, channels))
 }
 
 /// A count argument: negative values are a `ParameterError`, not an `OverflowError`.

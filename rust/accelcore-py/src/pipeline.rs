@@ -4,7 +4,7 @@ use accelcore_core::{BinnerConfig, DecimatorConfig, FusedPipeline, PipelineConfi
 use pyo3::prelude::*;
 
 use crate::binning::{stats_to_py, PyBinnedStats};
-use crate::gateway::{run_detached, slice_or_copy, In1, In2};
+use crate::gateway::{push_stream, run_detached};
 use crate::regression::{solution_to_py, PyLstsqSolution};
 
 /// Fused streaming pipeline (see `accelcore.core.FusedPipeline` in the stubs).
@@ -79,14 +79,14 @@ impl PyFusedPipeline {
     fn push(
         &mut self,
         py: Python<'_>,
-        time_s: In1<'_>,
-        temperature_c: In1<'_>,
-        channels: In2<'_>,
+        time_s: &Bound<'_, PyAny>,
+        temperature_c: &Bound<'_, PyAny>,
+        channels: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
-        let (time_s, temperature_c) = (slice_or_copy(&time_s), slice_or_copy(&temperature_c));
-        let channels = channels.as_array();
         let inner = &mut self.inner;
-        run_detached(py, || inner.push(&time_s, &temperature_c, channels))
+        push_stream(py, time_s, temperature_c, channels, |t, temp, ch| {
+            inner.push(t, temp, ch)
+        })
     }
 
     /// Merge another piece of the same log (shared `t0_s`, non-overlapping times).
