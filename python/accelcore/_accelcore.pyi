@@ -367,6 +367,36 @@ def first_order_lag(
     or ``x[0]``: what a die trailing the logged probe sees. ``tau_s = 0`` returns the input.
     """
 
+def running_median(y: ArrayLike, /, *, window: int) -> NDArray[np.float64]:
+    """Centred running median of ``y`` over ``2 * (window // 2) + 1`` values.
+
+    ``y`` is extended by ``half = window // 2`` values at each end as
+    ``np.pad(y, half, mode="reflect")`` would (the end values are not repeated), or
+    with ``mode="edge"`` when ``len(y) <= half``; output ``i`` is the median of padded
+    values ``i`` to ``i + 2 * half``. An even ``window`` is thus rounded up to the next
+    odd size. The median of an odd number of values is one of them, so the result is
+    exact and equals ``accelcore.reference.running_median`` bit for bit.
+
+    Parameters
+    ----------
+    y : array_like, shape (n,)
+        The series (converted to float64).
+    window : int
+        Window length, >= 1.
+
+    Returns
+    -------
+    ndarray of float64, shape (n,)
+        The running median; NaN where the window holds a NaN. Empty for empty ``y``.
+
+    Raises
+    ------
+    ParameterError
+        ``window < 1``.
+    ShapeError
+        ``y`` is not 1-D.
+    """
+
 @final
 class PipelineResult:
     """Output of :meth:`FusedPipeline.finish`.

@@ -9,6 +9,7 @@ result of one pass over ``a``'s input followed by ``b``'s.
 - :class:`TemperatureBinner`: per-temperature-bin count, mean and variance.
 - :class:`LeastSquares`: incremental weighted least squares (Givens QR).
 - :class:`FusedPipeline`: the three fused, decimate → bin → line fit, in one pass.
+- :func:`running_median`: a centred running median (the data-quality checks' smoother).
 
 All computation runs in Rust with the GIL released. ``accelcore.reference``
 holds an independent NumPy implementation of the same specification.
@@ -25,6 +26,7 @@ from accelcore._accelcore import (
     LstsqSolution,
     PipelineResult,
     TemperatureBinner,
+    running_median,
 )
 
 __all__ = [
@@ -36,4 +38,5 @@ __all__ = [
     "LstsqSolution",
     "PipelineResult",
     "TemperatureBinner",
+    "running_median",
 ]

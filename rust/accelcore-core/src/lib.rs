@@ -12,6 +12,7 @@
 //! - [`TemperatureBinner`]: per-temperature-bin count, mean and variance.
 //! - [`LeastSquares`]: incremental weighted least squares by Givens QR.
 //! - [`read_run`]: a streaming reader of session logs straight into a [`Decimator`].
+//! - [`running_median`]: a centred running median (the data-quality checks' smoother).
 
 pub mod binning;
 pub mod compensate;
@@ -21,6 +22,7 @@ pub mod features;
 pub mod pipeline;
 pub mod reader;
 pub mod regression;
+pub mod robust;
 
 pub use binning::{BinnedStats, BinnerConfig, TemperatureBinner};
 pub use compensate::compensate;
@@ -33,3 +35,4 @@ pub use reader::{
     RunData, SplitPlan,
 };
 pub use regression::{LeastSquares, LstsqSolution};
+pub use robust::running_median;

@@ -10,6 +10,7 @@ mod gateway;
 mod pipeline;
 mod reader;
 mod regression;
+mod robust;
 
 use pyo3::prelude::*;
 
@@ -30,6 +31,8 @@ mod _accelcore {
     };
     #[pymodule_export]
     use super::regression::{PyLeastSquares, PyLstsqSolution};
+    #[pymodule_export]
+    use super::robust::py_running_median;
 
     use pyo3::prelude::*;
 
