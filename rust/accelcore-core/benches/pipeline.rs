@@ -2,7 +2,8 @@
 //!
 //! Plain timing (no criterion, so the workspace builds quickly): `cargo bench
 //! -p accelcore-core --bench pipeline -- --nocapture` prints one line per
-//! kernel (median of 5 runs over 1e7 samples of time, temperature and 3 channels).
+//! kernel (median of 5 runs over 1e7 samples of time, temperature and 3 channels;
+//! `ACCELCORE_BENCH_N` and `ACCELCORE_BENCH_REPEAT` change both).
 #![allow(clippy::print_stderr)]
 use accelcore_core::{
     BinnerConfig, Decimator, DecimatorConfig, FusedPipeline, LeastSquares, PipelineConfig,
@@ -12,17 +13,32 @@ use ndarray::{Array2, Axis, Slice};
 use std::hint::black_box;
 use std::time::Instant;
 
-const N: usize = 10_000_000;
+/// Samples per run: `ACCELCORE_BENCH_N` (default 1e7).
+fn n_samples() -> usize {
+    std::env::var("ACCELCORE_BENCH_N")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .map_or(10_000_000, |v| v as usize)
+}
+
+/// Timed repetitions (median reported): `ACCELCORE_BENCH_REPEAT` (default 5).
+fn repeats() -> usize {
+    std::env::var("ACCELCORE_BENCH_REPEAT")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .map_or(5, |v: usize| v.max(1))
+}
 
 fn data() -> (Vec<f64>, Vec<f64>, Array2<f64>) {
-    let t: Vec<f64> = (0..N).map(|i| i as f64 / 20.0).collect();
-    let temp: Vec<f64> = (0..N).map(|i| -20.0 + 80.0 * i as f64 / N as f64).collect();
-    let ch = Array2::from_shape_fn((N, 3), |(i, j)| ((i * 7 + j * 13) % 101) as f64 * 1e-3);
+    let n = n_samples();
+    let t: Vec<f64> = (0..n).map(|i| i as f64 / 20.0).collect();
+    let temp: Vec<f64> = (0..n).map(|i| -20.0 + 80.0 * i as f64 / n as f64).collect();
+    let ch = Array2::from_shape_fn((n, 3), |(i, j)| ((i * 7 + j * 13) % 101) as f64 * 1e-3);
     (t, temp, ch)
 }
 
 fn median_rate(mut run: impl FnMut()) -> f64 {
-    let mut times: Vec<f64> = (0..5)
+    let mut times: Vec<f64> = (0..repeats())
         .map(|_| {
             let start = Instant::now();
             run();
@@ -30,7 +46,7 @@ fn median_rate(mut run: impl FnMut()) -> f64 {
         })
         .collect();
     times.sort_by(f64::total_cmp);
-    N as f64 / times[2]
+    n_samples() as f64 / times[times.len() / 2]
 }
 
 #[test]
@@ -50,12 +66,25 @@ fn throughput() {
             "decimate",
             median_rate(|| {
                 let mut d = Decimator::new(DecimatorConfig::default()).unwrap();
-                for start in (0..N).step_by(8192) {
-                    let end = (start + 8192).min(N);
+                for start in (0..t.len()).step_by(8192) {
+                    let end = (start + 8192).min(t.len());
                     let view = ch.slice_axis(Axis(0), Slice::from(start..end));
                     d.push(&t[start..end], &temp[start..end], view).unwrap();
                     black_box(d.drain_completed());
                 }
+            }),
+        );
+    }
+    if want("scan") {
+        // Memory floor: one branch-free pass over every input value.
+        let flat = ch.as_slice().unwrap();
+        report(
+            "scan",
+            median_rate(|| {
+                let ok = [&t[..], &temp[..], flat]
+                    .iter()
+                    .all(|v| v.iter().fold(true, |ok, x| ok & x.is_finite()));
+                black_box(ok);
             }),
         );
     }
@@ -69,7 +98,7 @@ fn throughput() {
             }),
         );
     }
-    let design = Array2::from_shape_fn((N, 2), |(i, j)| if j == 0 { 1.0 } else { temp[i] });
+    let design = Array2::from_shape_fn((t.len(), 2), |(i, j)| if j == 0 { 1.0 } else { temp[i] });
     let y = ch.column(0).to_vec();
     if want("lstsq") {
         report(

@@ -35,6 +35,9 @@ use crate::decimate::check_shapes;
 use crate::error::{Error, Result};
 use ndarray::ArrayView2;
 
+/// Channel counts up to this go through the run-wise fast path of `push`.
+const RUN_CHANNELS: usize = 8;
+
 /// Largest number of bins a configuration may produce.
 pub const MAX_BINS: usize = 10_000_000;
 
@@ -229,8 +232,14 @@ impl TemperatureBinner {
                 self.add(t, temp, &[]);
             }
         } else if let Some(flat) = channels.as_slice() {
-            for ((&t, &temp), row) in time_s.iter().zip(temperature_c).zip(flat.chunks_exact(nc)) {
-                self.add(t, temp, row);
+            if nc <= RUN_CHANNELS {
+                self.push_runs(time_s, temperature_c, flat);
+            } else {
+                for ((&t, &temp), row) in
+                    time_s.iter().zip(temperature_c).zip(flat.chunks_exact(nc))
+                {
+                    self.add(t, temp, row);
+                }
             }
         } else {
             let mut row = vec![0.0; nc];
@@ -242,6 +251,85 @@ impl TemperatureBinner {
             }
         }
         Ok(())
+    }
+
+    /// The bin of a row that enters one: finite values, temperature in the window.
+    #[inline]
+    fn bin_of(&self, t: f64, temp: f64, row: &[f64]) -> Option<usize> {
+        let c = &self.config;
+        let ok = t.is_finite()
+            & temp.is_finite()
+            & row.iter().fold(true, |ok, v| ok & v.is_finite())
+            & (temp >= c.lo_c)
+            & (temp < c.hi_c);
+        // `temp >= lo_c`, so the quotient is >= 0 and truncation is the floor.
+        ok.then(|| (((temp - c.lo_c) / c.width_c) as usize).min(self.n_bins - 1))
+    }
+
+    /// [`TemperatureBinner::add`] for contiguous rows of at most
+    /// [`RUN_CHANNELS`] channels. Temperature drifts slowly, so consecutive
+    /// rows mostly share a bin: a run of them is accumulated in local variables
+    /// (registers) rather than through memory, with the same operations in the
+    /// same order as `add`, so the result is bit-identical.
+    fn push_runs(&mut self, time_s: &[f64], temperature_c: &[f64], flat: &[f64]) {
+        let nc = self.config.n_channels;
+        let stride = stride(nc);
+        let n = time_s.len();
+        let row_at = |i: usize| &flat[i * nc..(i + 1) * nc];
+        let mut i = 0;
+        while i < n {
+            let (t, temp, row) = (time_s[i], temperature_c[i], row_at(i));
+            let Some(bin) = self.bin_of(t, temp, row) else {
+                self.add(t, temp, row);
+                i += 1;
+                continue;
+            };
+            let a = &mut self.acc[bin * stride..(bin + 1) * stride];
+            let mut count = self.count[bin];
+            let (mut mean_t, mut mean_temp) = (a[0], a[1]);
+            let mut shift = [0.0; RUN_CHANNELS];
+            let mut mean = [0.0; RUN_CHANNELS];
+            let mut m2 = [0.0; RUN_CHANNELS];
+            let (shift, mean, m2) = (&mut shift[..nc], &mut mean[..nc], &mut m2[..nc]);
+            shift.copy_from_slice(&a[2..2 + nc]);
+            mean.copy_from_slice(&a[2 + nc..2 + 2 * nc]);
+            m2.copy_from_slice(&a[2 + 2 * nc..2 + 3 * nc]);
+            if count == 0 {
+                shift.copy_from_slice(row);
+            }
+            let mut j = i;
+            loop {
+                let (t, temp, row) = (time_s[j], temperature_c[j], row_at(j));
+                count += 1;
+                #[allow(clippy::cast_precision_loss)]
+                let k = count as f64;
+                mean_t += (t - mean_t) / k;
+                mean_temp += (temp - mean_temp) / k;
+                for (((s, m), q), &x) in shift
+                    .iter()
+                    .zip(mean.iter_mut())
+                    .zip(m2.iter_mut())
+                    .zip(row)
+                {
+                    let y = x - s;
+                    let delta = y - *m;
+                    *m += delta / k;
+                    *q += delta * (y - *m);
+                }
+                j += 1;
+                if j == n || self.bin_of(time_s[j], temperature_c[j], row_at(j)) != Some(bin) {
+                    break;
+                }
+            }
+            self.count[bin] = count;
+            let a = &mut self.acc[bin * stride..(bin + 1) * stride];
+            a[0] = mean_t;
+            a[1] = mean_temp;
+            a[2..2 + nc].copy_from_slice(shift);
+            a[2 + nc..2 + 2 * nc].copy_from_slice(mean);
+            a[2 + 2 * nc..2 + 3 * nc].copy_from_slice(m2);
+            i = j;
+        }
     }
 
     #[inline]
@@ -259,7 +347,8 @@ impl TemperatureBinner {
             self.n_above += 1;
             return;
         }
-        let bin = (((temp - c.lo_c) / c.width_c).floor() as usize).min(self.n_bins - 1);
+        // `temp >= lo_c`, so the quotient is >= 0 and truncation is the floor.
+        let bin = (((temp - c.lo_c) / c.width_c) as usize).min(self.n_bins - 1);
         let nc = c.n_channels;
         let stride = stride(nc);
         let count = &mut self.count[bin];

@@ -267,7 +267,8 @@ impl Decimator {
         // branch-free so that it vectorises: every time finite and strictly
         // increasing. Otherwise the row-by-row loop finds the offending row.
         let mut last = self.time_range.map(|(_, hi)| hi);
-        if all_finite_increasing(last, time_s) {
+        let regular = all_finite_increasing(last, time_s);
+        if regular {
             last = time_s.last().copied();
         } else {
             for (i, &t) in time_s.iter().enumerate() {
@@ -307,14 +308,14 @@ impl Decimator {
         // live in a fixed-size array.
         let (t, temp, ch) = (time_s, temperature_c, &channels);
         let skipped = match self.config.n_channels {
-            0 => self.accumulate(t0, [0.0; 0], t, temp, ch),
-            1 => self.accumulate(t0, [0.0; 1], t, temp, ch),
-            2 => self.accumulate(t0, [0.0; 2], t, temp, ch),
-            3 => self.accumulate(t0, [0.0; 3], t, temp, ch),
-            4 => self.accumulate(t0, [0.0; 4], t, temp, ch),
-            5 => self.accumulate(t0, [0.0; 5], t, temp, ch),
-            6 => self.accumulate(t0, [0.0; 6], t, temp, ch),
-            nc => self.accumulate(t0, vec![0.0; nc], t, temp, ch),
+            0 => self.accumulate(t0, [0.0; 0], t, temp, ch, regular),
+            1 => self.accumulate(t0, [0.0; 1], t, temp, ch, regular),
+            2 => self.accumulate(t0, [0.0; 2], t, temp, ch, regular),
+            3 => self.accumulate(t0, [0.0; 3], t, temp, ch, regular),
+            4 => self.accumulate(t0, [0.0; 4], t, temp, ch, regular),
+            5 => self.accumulate(t0, [0.0; 5], t, temp, ch, regular),
+            6 => self.accumulate(t0, [0.0; 6], t, temp, ch, regular),
+            nc => self.accumulate(t0, vec![0.0; nc], t, temp, ch, regular),
         };
         self.n_skipped = self.n_skipped.saturating_add(skipped);
         Ok(())
@@ -536,6 +537,7 @@ impl Decimator {
         time_s: &[f64],
         temperature_c: &[f64],
         channels: &ArrayView2<'_, f64>,
+        regular: bool,
     ) -> u64 {
         for (dst, &v) in sums.as_mut().iter_mut().zip(&self.open.sum_ch) {
             *dst = v;
@@ -563,7 +565,23 @@ impl Decimator {
         };
         let closed = &mut self.closed;
         let rows = time_s.iter().zip(temperature_c);
-        if nc == 0 {
+        let flat = if nc == 0 {
+            Some(&[][..])
+        } else {
+            channels.as_slice()
+        };
+        if let (true, Some(flat)) = (regular, flat) {
+            // Block runs found by their boundary times; rows it cannot place
+            // exactly that way go through the row-by-row loop below.
+            let done = hot.run_regular(closed, time_s, temperature_c, flat);
+            let rest = time_s[done..].iter().zip(&temperature_c[done..]);
+            if nc == 0 {
+                hot.run(closed, rest.map(|(&t, &temp)| (t, temp, &[][..])));
+            } else {
+                let tail = flat[done * nc..].chunks_exact(nc);
+                hot.run(closed, rest.zip(tail).map(|((&t, &temp), r)| (t, temp, r)));
+            }
+        } else if nc == 0 {
             hot.run(closed, rows.map(|(&t, &temp)| (t, temp, &[][..])));
         } else if let Some(flat) = channels.as_slice() {
             hot.run(
@@ -652,6 +670,11 @@ fn all_finite_increasing(prev: Option<f64>, time_s: &[f64]) -> bool {
         .fold(true, |ok, (a, b)| ok & (a < b))
 }
 
+/// Whether every value is finite; branch-free, so that it vectorises.
+fn all_finite(values: &[f64]) -> bool {
+    values.iter().fold(true, |ok, v| ok & v.is_finite())
+}
+
 /// Shape checks shared by the decimator and the binner.
 pub(crate) fn check_shapes(
     time_s: &[f64],
@@ -702,6 +725,193 @@ struct Hot<S> {
 }
 
 impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
+    /// The first time of block `m`: the smallest `t` whose block coordinate
+    /// `x(t) = (t - t0) * rate_hz / factor` (evaluated exactly as in the hot
+    /// loop) is at least `m`. `x` is monotone in `t` (each rounding step is), so
+    /// `t < boundary(k + 1)` is the same test as `floor(x(t)) <= k`. The guess
+    /// `t0 + m * factor / rate_hz` is corrected ulp by ulp; `None` when that
+    /// does not settle within a few ulps (ill-scaled `t0`, overflow).
+    fn boundary(t0: f64, rate_hz: f64, factor: f64, m: f64) -> Option<f64> {
+        const MAX_STEPS: usize = 8;
+        let x = |t: f64| (t - t0) * rate_hz / factor;
+        let mut g = t0 + m * factor / rate_hz;
+        if !g.is_finite() {
+            return None;
+        }
+        if x(g) >= m {
+            for _ in 0..MAX_STEPS {
+                let below = g.next_down();
+                if !(x(below) >= m) {
+                    return Some(g);
+                }
+                g = below;
+            }
+        } else {
+            for _ in 0..MAX_STEPS {
+                g = g.next_up();
+                if x(g) >= m {
+                    return g.is_finite().then_some(g);
+                }
+            }
+        }
+        None
+    }
+
+    /// Fast path for a chunk whose times are all finite and strictly
+    /// increasing, with contiguous channel rows (`flat`, row-major): the rows of
+    /// one block form a run that ends at the block's boundary time, so the
+    /// block index is worked out once per block instead of once per row, and a
+    /// run without NaN is summed without per-row checks. Sums are taken in row
+    /// order, so the result is bit-identical to [`Hot::run`]. Returns the
+    /// number of rows consumed: all of them, unless a block index is too large
+    /// to place this way (|x| >= 2^52) or a boundary cannot be pinned down;
+    /// the caller then hands the remaining rows to [`Hot::run`].
+    fn run_regular(
+        &mut self,
+        closed: &mut BlockSums,
+        time_s: &[f64],
+        temperature_c: &[f64],
+        flat: &[f64],
+    ) -> usize {
+        /// Block coordinates below this are exact integers apart (k + 2 exact).
+        const LIMIT: f64 = 4_503_599_627_370_496.0; // 2^52
+        /// Channel counts up to this sum a new block's run without per-row checks.
+        const SPECULATE_CHANNELS: usize = 8;
+        let n = time_s.len();
+        let (t0, rate_hz, factor) = (self.t0, self.rate_hz, self.factor);
+        let x_of = |t: f64| (t - t0) * rate_hz / factor;
+        let (mut index, mut lo, mut hi) = (self.index, self.lo, self.hi);
+        let (mut count, mut sum_time, mut sum_temp) = (self.count, self.sum_time, self.sum_temp);
+        let sums = self.sums.as_mut();
+        let nc = sums.len();
+        let mut n_skipped = 0u64;
+        // The block after the latest run: (index, first time, first time of the next one).
+        let mut next: Option<(i64, f64, f64)> = None;
+        let mut run_len = 1;
+        let mut i = 0;
+        while i < n {
+            let t = time_s[i];
+            let (k, end) = match next {
+                Some((k, start, end)) if t >= start && t < end => (k, end),
+                _ => {
+                    let x = x_of(t);
+                    if !(x.abs() < LIMIT) {
+                        break;
+                    }
+                    let k = x.floor();
+                    let Some(end) = Self::boundary(t0, rate_hz, factor, k + 1.0) else {
+                        break;
+                    };
+                    #[allow(clippy::cast_possible_truncation)]
+                    let k = k as i64;
+                    (k, end)
+                }
+            };
+            // Rows of the run: usually as many as last time (check both ends;
+            // times increase), otherwise scan.
+            let guess = i + run_len;
+            let j = if guess <= n && time_s[guess - 1] < end && (guess == n || time_s[guess] >= end)
+            {
+                guess
+            } else {
+                let mut j = i + 1;
+                while j < n && time_s[j] < end {
+                    j += 1;
+                }
+                j
+            };
+            run_len = j - i;
+            let (rt, rtemp) = (&time_s[i..j], &temperature_c[i..j]);
+            let rch = &flat[i * nc..j * nc];
+            let fresh = count == 0 || k != index;
+            if fresh && nc <= SPECULATE_CHANNELS {
+                // A new block: sum the run from zero as the block's own sums
+                // would be (same operands, same order). A NaN or infinity makes
+                // some sum non-finite; only then look at the rows one by one.
+                let (mut st, mut sp) = (0.0, 0.0);
+                let mut sc = [0.0; SPECULATE_CHANNELS];
+                let sc = &mut sc[..nc];
+                for (&tt, &tp) in rt.iter().zip(rtemp) {
+                    st += tt;
+                    sp += tp;
+                }
+                if nc > 0 {
+                    for row in rch.chunks_exact(nc) {
+                        for (acc, &v) in sc.iter_mut().zip(row) {
+                            *acc += v;
+                        }
+                    }
+                }
+                if st.is_finite() & sp.is_finite() & all_finite(sc) {
+                    if count > 0 {
+                        closed.push(index, count, sum_time, sum_temp, sums);
+                    }
+                    index = k;
+                    count = run_len as u64;
+                    (sum_time, sum_temp) = (st, sp);
+                    sums.copy_from_slice(sc);
+                    #[allow(clippy::cast_precision_loss)]
+                    let l = k as f64;
+                    (lo, hi) = (l, l + 1.0);
+                    i = j;
+                    next = None;
+                    if i < n {
+                        #[allow(clippy::cast_precision_loss)]
+                        let after = k as f64 + 2.0;
+                        if let Some(e2) = Self::boundary(t0, rate_hz, factor, after) {
+                            next = Some((k + 1, end, e2));
+                        }
+                    }
+                    continue;
+                }
+            }
+            // Row by row: the run continues the open block, or holds a NaN.
+            let mut opened = false;
+            for r in 0..run_len {
+                let row = &rch[r * nc..(r + 1) * nc];
+                if !(rtemp[r].is_finite() && all_finite(row)) {
+                    n_skipped += 1;
+                    continue;
+                }
+                if !opened {
+                    opened = true;
+                    if count == 0 || k != index {
+                        if count > 0 {
+                            closed.push(index, count, sum_time, sum_temp, sums);
+                        }
+                        index = k;
+                        count = 0;
+                        sum_time = 0.0;
+                        sum_temp = 0.0;
+                        sums.fill(0.0);
+                    }
+                    #[allow(clippy::cast_precision_loss)]
+                    let l = k as f64;
+                    (lo, hi) = (l, l + 1.0);
+                }
+                count += 1;
+                sum_time += rt[r];
+                sum_temp += rtemp[r];
+                for (acc, &v) in sums.iter_mut().zip(row) {
+                    *acc += v;
+                }
+            }
+            i = j;
+            next = None;
+            if i < n {
+                #[allow(clippy::cast_precision_loss)]
+                let after = k as f64 + 2.0;
+                if let Some(e2) = Self::boundary(t0, rate_hz, factor, after) {
+                    next = Some((k + 1, end, e2));
+                }
+            }
+        }
+        (self.index, self.lo, self.hi) = (index, lo, hi);
+        (self.count, self.sum_time, self.sum_temp) = (count, sum_time, sum_temp);
+        self.n_skipped += n_skipped;
+        i
+    }
+
     /// The hot loop. The state is copied into locals so that it stays in
     /// registers; completed blocks are appended to `closed`.
     #[inline]
