@@ -130,6 +130,16 @@ impl DecimatedBlocks {
         self.block_index.is_empty()
     }
 
+    /// Remove every block, keeping the memory; set the channel count.
+    fn clear(&mut self, n_channels: usize) {
+        self.n_channels = n_channels;
+        self.block_index.clear();
+        self.count.clear();
+        self.time_s.clear();
+        self.temperature_c.clear();
+        self.channels.clear();
+    }
+
     fn with_capacity(n_channels: usize, n: usize) -> Self {
         Self {
             n_channels,
@@ -178,6 +188,15 @@ impl BlockSums {
 
     fn channels(&self, i: usize, nc: usize) -> &[f64] {
         &self.sum_ch[i * nc..(i + 1) * nc]
+    }
+
+    /// Remove every block, keeping the memory.
+    fn clear(&mut self) {
+        self.index.clear();
+        self.count.clear();
+        self.sum_time.clear();
+        self.sum_temp.clear();
+        self.sum_ch.clear();
     }
 }
 
@@ -483,14 +502,21 @@ impl Decimator {
     /// reports only the blocks not yet drained. A drained decimator must not
     /// be merged with a piece that precedes it (such a merge is rejected).
     pub fn drain_completed(&mut self) -> DecimatedBlocks {
-        let nc = self.config.n_channels;
-        let closed = std::mem::take(&mut self.closed);
-        if closed.len() > 0 {
+        let mut out = DecimatedBlocks::with_capacity(self.config.n_channels, self.closed.len());
+        self.drain_completed_into(&mut out);
+        out
+    }
+
+    /// [`Decimator::drain_completed`] into `out` (cleared first), reusing its
+    /// memory and the decimator's: a stream drained after every chunk then
+    /// allocates nothing once warm.
+    pub fn drain_completed_into(&mut self, out: &mut DecimatedBlocks) {
+        out.clear(self.config.n_channels);
+        if self.closed.len() > 0 {
             self.drained = true;
         }
-        let mut out = DecimatedBlocks::with_capacity(nc, closed.len());
-        self.append_kept(&mut out, &closed);
-        out
+        self.append_kept(out, &self.closed);
+        self.closed.clear();
     }
 
     /// All blocks so far with at least `min_count` samples. Error if none.
@@ -670,6 +696,24 @@ fn all_finite_increasing(prev: Option<f64>, time_s: &[f64]) -> bool {
         .fold(true, |ok, (a, b)| ok & (a < b))
 }
 
+/// The least `f64` above finite or -inf `x` (`f64::next_up`, stable only from Rust 1.86).
+fn next_up(x: f64) -> f64 {
+    if x.is_nan() || x == f64::INFINITY {
+        x
+    } else if x == 0.0 {
+        f64::from_bits(1)
+    } else if x > 0.0 {
+        f64::from_bits(x.to_bits() + 1)
+    } else {
+        f64::from_bits(x.to_bits() - 1)
+    }
+}
+
+/// The greatest `f64` below `x` (`f64::next_down`).
+fn next_down(x: f64) -> f64 {
+    -next_up(-x)
+}
+
 /// Whether every value is finite; branch-free, so that it vectorises.
 fn all_finite(values: &[f64]) -> bool {
     values.iter().fold(true, |ok, v| ok & v.is_finite())
@@ -740,15 +784,16 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
         }
         if x(g) >= m {
             for _ in 0..MAX_STEPS {
-                let below = g.next_down();
-                if !(x(below) >= m) {
+                let below = next_down(g);
+                let xb = x(below);
+                if xb < m || xb.is_nan() {
                     return Some(g);
                 }
                 g = below;
             }
         } else {
             for _ in 0..MAX_STEPS {
-                g = g.next_up();
+                g = next_up(g);
                 if x(g) >= m {
                     return g.is_finite().then_some(g);
                 }
@@ -795,7 +840,7 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
                 Some((k, start, end)) if t >= start && t < end => (k, end),
                 _ => {
                     let x = x_of(t);
-                    if !(x.abs() < LIMIT) {
+                    if x.is_nan() || x.abs() >= LIMIT {
                         break;
                     }
                     let k = x.floor();

@@ -150,6 +150,8 @@ pub struct FusedPipeline {
     time_range: Option<(f64, f64)>,
     n_blocks: u64,
     n_blocks_dropped: u64,
+    /// Scratch, reused: the blocks drained after a sub-chunk.
+    drained: DecimatedBlocks,
     /// Scratch for the fits, reused: design `[1, T - t_ref]` and weights.
     design: Vec<f64>,
     weights: Vec<f64>,
@@ -200,6 +202,7 @@ impl FusedPipeline {
             time_range: None,
             n_blocks: 0,
             n_blocks_dropped: 0,
+            drained: DecimatedBlocks::default(),
             design: Vec::new(),
             weights: Vec::new(),
         })
@@ -250,8 +253,10 @@ impl FusedPipeline {
             self.decimator
                 .push(&time_s[start..end], &temperature_c[start..end], rows)?;
             self.note_times(&time_s[start..end]);
-            let blocks = self.decimator.drain_completed();
+            let mut blocks = std::mem::take(&mut self.drained);
+            self.decimator.drain_completed_into(&mut blocks);
             self.take_blocks(&blocks)?;
+            self.drained = blocks;
             start = end;
         }
         Ok(())
@@ -348,6 +353,7 @@ impl FusedPipeline {
             },
             n_blocks: early.n_blocks.saturating_add(late.n_blocks),
             n_blocks_dropped: early.n_blocks_dropped.saturating_add(late.n_blocks_dropped),
+            drained: DecimatedBlocks::default(),
             design: Vec::new(),
             weights: Vec::new(),
         };

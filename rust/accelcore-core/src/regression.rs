@@ -306,27 +306,50 @@ impl LeastSquares {
             }
         }
         // Fast vectorisable screen; only if it fails, find the first bad value in row order.
+        // Contiguous rows (the usual case) are screened and read as slices,
+        // branch-free, without a view per row.
+        let all_finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
+        let weights_ok = weights.is_none_or(|w| {
+            w.iter()
+                .fold(true, |ok, &w| ok & (w.is_finite() && w >= 0.0))
+        });
+        if let (Some(xs), Some(ys)) = (design.as_slice(), responses.as_slice()) {
+            if !(all_finite(xs) && all_finite(ys) && weights_ok) {
+                self.first_invalid(design, responses, weights)?;
+            }
+            if self.n_responses > 0 {
+                self.accumulate(
+                    xs.chunks_exact(p),
+                    ys.chunks_exact(self.n_responses),
+                    weights,
+                );
+                return Ok(());
+            }
+        }
         let finite = |v: &f64| v.is_finite();
-        let clean = design.iter().all(finite)
-            && responses.iter().all(finite)
-            && weights.is_none_or(|w| w.iter().all(|&w| w.is_finite() && w >= 0.0));
+        let clean = design.iter().all(finite) && responses.iter().all(finite) && weights_ok;
         if !clean {
             self.first_invalid(design, responses, weights)?;
         }
+        let rows = responses.rows();
         match design.as_slice() {
-            Some(flat) => self.accumulate(flat.chunks_exact(p), responses, weights),
-            None => self.accumulate(design.rows().into_iter(), responses, weights),
+            Some(flat) => self.accumulate(flat.chunks_exact(p), rows.into_iter(), weights),
+            None => self.accumulate(design.rows().into_iter(), rows.into_iter(), weights),
         }
         Ok(())
     }
 
     /// Rotate validated rows into the state, `BLOCK_ROWS` at a time.
-    fn accumulate<'a, R: IntoIterator<Item = &'a f64>>(
+    fn accumulate<'a, 'b, R, Y>(
         &mut self,
         rows: impl Iterator<Item = R>,
-        responses: ArrayView2<'_, f64>,
+        responses: impl ExactSizeIterator<Item = Y>,
         weights: Option<&[f64]>,
-    ) {
+    ) where
+        R: IntoIterator<Item = &'a f64>,
+        Y: IntoIterator<Item = &'b f64>,
+    {
+        let n_pushed = responses.len() as u64;
         let p = self.n_columns;
         let width = p + self.n_responses;
         let Self {
@@ -341,12 +364,17 @@ impl LeastSquares {
         } = self;
         let mut accepted = 0_u64;
         let mut filled = 0_usize;
-        for (k, (row, ys)) in rows.zip(responses.rows()).enumerate() {
+        // Weights often repeat (block counts): reuse the last square root.
+        let (mut last_w, mut last_sw) = (1.0_f64, 1.0_f64);
+        for (k, (row, ys)) in rows.zip(responses).enumerate() {
             let w = weights.map_or(1.0, |w| w[k]);
             if w == 0.0 {
                 continue;
             }
-            let sw = w.sqrt();
+            if w.to_bits() != last_w.to_bits() {
+                (last_w, last_sw) = (w, w.sqrt());
+            }
+            let sw = last_sw;
             let dst = &mut block[filled * width..(filled + 1) * width];
             for ((s, css), &x) in dst.iter_mut().zip(column_sum_squares.iter_mut()).zip(row) {
                 let v = sw * x;
@@ -367,7 +395,7 @@ impl LeastSquares {
             rotate_block_in(rz, diag_sq, p, &mut block[..filled * width], 0, rss);
         }
         *n_rows += accepted;
-        *rows_seen += responses.nrows() as u64;
+        *rows_seen += n_pushed;
     }
 
     /// The first non-finite value or negative weight of a chunk, in row order
