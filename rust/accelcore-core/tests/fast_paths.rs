@@ -16,7 +16,7 @@ use proptest::prelude::*;
 /// Block means straight from the documented formula, one row at a time.
 fn oracle(c: &DecimatorConfig, t: &[f64], temp: &[f64], ch: &Array2<f64>) -> DecimatedBlocks {
     let nc = c.n_channels;
-    let t0 = c.t0_s.unwrap_or(t[0]);
+    let t0 = c.t0_s.or(t.first().copied()).unwrap_or(0.0);
     // (k, count, sum_t, sum_temp, sums)
     let mut blocks: Vec<(i64, u64, f64, f64, Vec<f64>)> = Vec::new();
     for i in 0..t.len() {
