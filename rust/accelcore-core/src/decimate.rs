@@ -178,12 +178,25 @@ impl BlockSums {
         self.index.len()
     }
 
+    #[inline]
     fn push(&mut self, k: i64, count: u64, sum_t: f64, sum_temp: f64, sum_ch: &[f64]) {
         self.index.push(k);
         self.count.push(count);
         self.sum_time.push(sum_t);
         self.sum_temp.push(sum_temp);
-        self.sum_ch.extend_from_slice(sum_ch);
+        // Element by element: a few channels, not worth a `memmove` call.
+        for &v in sum_ch {
+            self.sum_ch.push(v);
+        }
+    }
+
+    /// Room for `n` more blocks of `nc` channels.
+    fn reserve(&mut self, n: usize, nc: usize) {
+        self.index.reserve(n);
+        self.count.reserve(n);
+        self.sum_time.reserve(n);
+        self.sum_temp.reserve(n);
+        self.sum_ch.reserve(n.saturating_mul(nc));
     }
 
     fn channels(&self, i: usize, nc: usize) -> &[f64] {
@@ -649,6 +662,26 @@ impl Decimator {
     fn append_kept(&self, out: &mut DecimatedBlocks, sums: &BlockSums) {
         let nc = self.config.n_channels;
         let min = self.config.min_count as u64;
+        if sums.count.iter().all(|&c| c >= min) {
+            // Every block is kept: column by column, the same `sum / count`.
+            #[allow(clippy::cast_precision_loss)]
+            let mean = |(s, &c): (&f64, &u64)| s / c as f64;
+            out.block_index.extend_from_slice(&sums.index);
+            out.count.extend_from_slice(&sums.count);
+            out.time_s
+                .extend(sums.sum_time.iter().zip(&sums.count).map(mean));
+            out.temperature_c
+                .extend(sums.sum_temp.iter().zip(&sums.count).map(mean));
+            if nc > 0 {
+                out.channels.reserve(sums.sum_ch.len());
+                for (row, &c) in sums.sum_ch.chunks_exact(nc).zip(&sums.count) {
+                    #[allow(clippy::cast_precision_loss)]
+                    let n = c as f64;
+                    out.channels.extend(row.iter().map(|s| s / n));
+                }
+            }
+            return;
+        }
         for i in 0..sums.len() {
             if sums.count[i] >= min {
                 out.push_mean(
@@ -782,7 +815,13 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
         if !g.is_finite() {
             return None;
         }
-        if x(g) >= m {
+        // Usually the guess is the edge itself: test it and its predecessor
+        // at once (independent divisions overlap).
+        let (at, before) = (x(g), x(next_down(g)));
+        if at >= m && before < m {
+            return Some(g);
+        }
+        if at >= m {
             for _ in 0..MAX_STEPS {
                 let below = next_down(g);
                 let xb = x(below);
@@ -829,6 +868,10 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
         let (mut count, mut sum_time, mut sum_temp) = (self.count, self.sum_time, self.sum_temp);
         let sums = self.sums.as_mut();
         let nc = sums.len();
+        // A block holds about `factor` rows: room for the blocks this chunk closes.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let per_block = (factor as usize).max(1);
+        closed.reserve(n / per_block + 2, nc);
         let mut n_skipped = 0u64;
         // The block after the latest run: (index, first time, first time of the next one).
         let mut next: Option<(i64, f64, f64)> = None;
