@@ -10,14 +10,20 @@ Hypothesis profiles, chosen by the environment variable
     derandomised so that a CI failure reproduces exactly on any machine.
 ``thorough``
     2000 examples, no deadline, random; for occasional long hunts.
+
+The run cache of ``load_session`` (``accelcore.cache``) points at a temporary
+folder for the whole test session, so no test reads or writes the user's
+``~/.cache/accelcore/runs``.
 """
 
 from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, settings
 
 # The shared helpers (``strategies``, ``helpers``) are plain modules next to
@@ -47,3 +53,28 @@ settings.register_profile(
     suppress_health_check=_SUPPRESSED,
 )
 settings.load_profile(os.environ.get("ACCELCORE_HYPOTHESIS_PROFILE", "dev"))
+
+
+_CACHE_ENV = ("ACCELCORE_CACHE_DIR", "ACCELCORE_CACHE", "ACCELCORE_CACHE_MAX_MB")
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _private_run_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """Point the default run cache at a temporary folder; the defaults otherwise.
+
+    Set in ``os.environ`` (not monkeypatch, which is per test) so that CLI
+    subprocesses, bulk worker processes and Dask workers inherit it.
+    """
+    saved = {k: os.environ.get(k) for k in _CACHE_ENV}
+    folder = tmp_path_factory.mktemp("run-cache")
+    for k in _CACHE_ENV:
+        os.environ.pop(k, None)
+    os.environ["ACCELCORE_CACHE_DIR"] = str(folder)
+    try:
+        yield folder
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v

@@ -42,6 +42,7 @@ from typing import Any, TextIO
 import pandas as pd
 
 from accelcore._accelcore import __version__
+from accelcore.cache import CacheSetting
 from accelcore.errors import AccelcoreError
 
 __all__ = [
@@ -187,7 +188,13 @@ def _fleet_rows(rel: str, cal: Any, diag: Any) -> list[dict[str, Any]]:
 
 
 def process_session(
-    archive: str | Path, rel: str, out: str | Path, *, diagnose: bool = True, force: bool = False
+    archive: str | Path,
+    rel: str,
+    out: str | Path,
+    *,
+    diagnose: bool = True,
+    force: bool = False,
+    cache: CacheSetting = True,
 ) -> SessionOutcome:
     """Calibrate (and diagnose) one session and write its outputs; never raises on bad data.
 
@@ -203,6 +210,8 @@ def process_session(
         Also run :func:`accelcore.diagnose` and write ``diagnosis.json``.
     force : bool, default False
         Redo the session even if its outputs are up to date.
+    cache : bool, str or os.PathLike, default True
+        The run cache, as in :func:`accelcore.load_session`.
 
     Returns
     -------
@@ -222,7 +231,7 @@ def process_session(
         pass  # unreadable marker: redo the session
     stage = "load"
     try:
-        session = accelcore.load_session(src)
+        session = accelcore.load_session(src, cache=cache)
         stage = "calibrate"
         cal = accelcore.calibrate(session)
         dst.mkdir(parents=True, exist_ok=True)
@@ -358,18 +367,21 @@ def _run_local(
     jobs: int,
     diagnose: bool,
     force: bool,
+    cache: CacheSetting,
     on_done: Callable[[SessionOutcome], None],
 ) -> list[SessionOutcome]:
     outcomes: list[SessionOutcome] = []
     if jobs <= 1:
         for rel in sessions:
-            o = process_session(archive, rel, out, diagnose=diagnose, force=force)
+            o = process_session(archive, rel, out, diagnose=diagnose, force=force, cache=cache)
             on_done(o)
             outcomes.append(o)
         return outcomes
     with ProcessPoolExecutor(max_workers=jobs) as pool:
         futures: list[Future[SessionOutcome]] = [
-            pool.submit(process_session, archive, rel, out, diagnose=diagnose, force=force)
+            pool.submit(
+                process_session, archive, rel, out, diagnose=diagnose, force=force, cache=cache
+            )
             for rel in sessions
         ]
         for fut in as_completed(futures):
@@ -386,6 +398,7 @@ def _run_dask(
     out: Path,
     diagnose: bool,
     force: bool,
+    cache: CacheSetting,
     on_done: Callable[[SessionOutcome], None],
 ) -> list[SessionOutcome]:
     import distributed
@@ -400,6 +413,7 @@ def _run_dask(
             str(out),
             diagnose=diagnose,
             force=force,
+            cache=cache,
             pure=False,
             key=f"accelcore-session-{i}",
         )
@@ -424,6 +438,7 @@ def bulk(
     force: bool = False,
     progress: bool = True,
     stream: TextIO | None = None,
+    cache: CacheSetting = True,
 ) -> BulkResult:
     """Calibrate and diagnose every session under ``archive``; write per-session and fleet outputs.
 
@@ -447,6 +462,9 @@ def bulk(
         Show progress on ``stream`` (a bar on a terminal, log lines otherwise).
     stream : text stream, optional
         Where progress goes; default stderr.
+    cache : bool, str or os.PathLike, default True
+        The run cache used to load each session (:func:`accelcore.load_session`);
+        a folder given here must be reachable from every worker.
 
     Returns
     -------
@@ -465,10 +483,14 @@ def bulk(
         client = own_client = make_client(scheduler)
     try:
         if client is not None:
-            outcomes = _run_dask(client, archive_p, sessions, out_p, diagnose, force, bar.update)
+            outcomes = _run_dask(
+                client, archive_p, sessions, out_p, diagnose, force, cache, bar.update
+            )
         else:
             n_jobs = jobs if jobs is not None else (os.cpu_count() or 1)
-            outcomes = _run_local(archive_p, sessions, out_p, n_jobs, diagnose, force, bar.update)
+            outcomes = _run_local(
+                archive_p, sessions, out_p, n_jobs, diagnose, force, cache, bar.update
+            )
     finally:
         if own_client is not None:
             own_client.close()

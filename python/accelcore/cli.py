@@ -212,7 +212,7 @@ def _check_quality(session: Any) -> list[dict[str, Any]]:
 def _cmd_calibrate(args: argparse.Namespace, out: TextIO) -> int:
     import accelcore
 
-    session = accelcore.load_session(args.session)
+    session = accelcore.load_session(args.session, cache=not args.no_cache)
     quality = _check_quality(session)
     cal = accelcore.calibrate(
         session, args.method, t_ref_c=args.t_ref, window_c=(args.window[0], args.window[1])
@@ -385,7 +385,7 @@ def _cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
         diagnosis = importlib.import_module("accelcore.diagnosis")
     except ImportError as exc:
         raise _UsageError(f"diagnosis is not available in this installation ({exc})") from exc
-    session = accelcore.load_session(args.session)
+    session = accelcore.load_session(args.session, cache=not args.no_cache)
     quality = _check_quality(session)
     result = diagnosis.diagnose(session)
     if args.json:
@@ -413,6 +413,7 @@ def _cmd_bulk(args: argparse.Namespace, out: TextIO) -> int:
         diagnose=not args.no_diagnose,
         force=args.force,
         progress=not args.quiet,
+        cache=not args.no_cache,
     )
     n_failed = len(result.failures)
     print(
@@ -427,6 +428,8 @@ def _cmd_bulk(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _cmd_report(args: argparse.Namespace, out: TextIO) -> int:
+    import accelcore
+
     try:
         import matplotlib
 
@@ -441,7 +444,9 @@ def _cmd_report(args: argparse.Namespace, out: TextIO) -> int:
         elif (src / "session.toml").is_file():
             if args.output is None:
                 raise _UsageError("a session report needs -o DIR")
-            page = report.session_report(src, args.output)
+            page = report.session_report(
+                accelcore.load_session(src, cache=not args.no_cache), args.output
+            )
         elif not src.is_dir():
             raise CliDataError(f"{src}: no such folder")
         else:
@@ -525,7 +530,9 @@ def _cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
 def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
     from accelcore import demo
 
-    return int(demo.run(directory=args.dir, regenerate=args.regenerate, out=out))
+    return int(
+        demo.run(directory=args.dir, regenerate=args.regenerate, out=out, cache=not args.no_cache)
+    )
 
 
 # ---------------------------------------------------------------------- parser
@@ -576,6 +583,14 @@ def _window(text: str) -> float:
     return value
 
 
+def _add_no_cache(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--no-cache",
+        action="store_true",
+        help="read every log again; neither use nor fill the run cache (docs/cache.md)",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the ``accelcore`` argument parser.
 
@@ -617,6 +632,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
     p.add_argument("--save", metavar="CAL.json", help="save the calibration file")
+    _add_no_cache(p)
     p.set_defaults(func=_cmd_calibrate, data_path="session")
 
     p = add("compensate", "turn a raw log into acceleration in g with a saved calibration")
@@ -643,6 +659,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = add("diagnose", "calibrate and diagnose what the model still gets wrong")
     p.add_argument("session", metavar="SESSION", help="session folder (holding session.toml)")
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
+    _add_no_cache(p)
     p.set_defaults(func=_cmd_diagnose, data_path="session")
 
     p = add("bulk", "calibrate and diagnose every session under an archive folder")
@@ -653,6 +670,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-diagnose", action="store_true", help="calibrate only")
     p.add_argument("--force", action="store_true", help="redo sessions that are up to date")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    _add_no_cache(p)
     p.set_defaults(func=_cmd_bulk, data_path="archive")
 
     p = add("report", "write an HTML report of a session or of a bulk output")
@@ -665,6 +683,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="folder for index.html (required for a session; default for a bulk output: OUT)",
     )
+    _add_no_cache(p)
     p.set_defaults(func=_cmd_report, data_path="path")
 
     p = add("simulate", "write a simulated session with known truth")
@@ -700,6 +719,7 @@ def build_parser() -> argparse.ArgumentParser:
         "source tree if writable, else a cache folder); generated there if absent",
     )
     p.add_argument("--regenerate", action="store_true", help="generate the session again")
+    _add_no_cache(p)
     p.set_defaults(func=_cmd_demo, data_path="dir")
     return parser
 

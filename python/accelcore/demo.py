@@ -158,7 +158,11 @@ def _tc_table(joint: Any, paper: Any, truth: dict[str, Any] | None) -> str:
 
 
 def run(
-    directory: str | Path | None = None, *, regenerate: bool = False, out: TextIO | None = None
+    directory: str | Path | None = None,
+    *,
+    regenerate: bool = False,
+    out: TextIO | None = None,
+    cache: bool = True,
 ) -> int:
     """Generate (if needed), calibrate and print the demo session.
 
@@ -170,6 +174,8 @@ def run(
         Generate the session again even when present.
     out : text stream, optional
         Where to print (default ``sys.stdout``).
+    cache : bool, default True
+        Use the run cache (``load_session(..., cache=)``).
 
     Returns
     -------
@@ -196,7 +202,7 @@ def run(
         f"{p['duration_h']:g} h sweeps -2→65 °C at 20 Hz, the paper's measured part as truth)",
         file=stream,
     )
-    session = accelcore.load_session(folder)
+    session = accelcore.load_session(folder, cache=cache)
     joint = accelcore.calibrate(session, "joint")
     paper = accelcore.calibrate(session, "paper")
     print(f"\n{summary_text(joint)}", file=stream)

@@ -18,13 +18,14 @@ from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from accelcore import core
 from accelcore._accelcore import read_run
+from accelcore.cache import CacheSetting, Probe, RunCache, RunRecord
 from accelcore.errors import AccelcoreIOError, SessionFormatError
 
 __all__ = [
@@ -347,10 +348,23 @@ def _channel_ranges(
     return lo, hi, at_lo, at_hi
 
 
+class _Blocks(Protocol):
+    """What :func:`_make_run` reads of decimated blocks (Rust's, or the run cache's)."""
+
+    @property
+    def count(self) -> NDArray[np.int64]: ...
+    @property
+    def time_s(self) -> NDArray[np.float64]: ...
+    @property
+    def temperature_c(self) -> NDArray[np.float64]: ...
+    @property
+    def channels(self) -> NDArray[np.float64]: ...
+
+
 def _make_run(
     orientation: str,
     gravity: NDArray[np.float64],
-    blocks: core.DecimatedBlocks,
+    blocks: _Blocks,
     extra_names: Sequence[str],
     source: str | None,
     stats: RunStats,
@@ -399,7 +413,27 @@ def _read_toml(path: Path) -> dict[str, Any]:
         raise SessionFormatError(f"{toml_path}: not UTF-8 text: {exc}") from exc
 
 
-def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: int = 1) -> Session:
+class _ReadParams(TypedDict):
+    """Keyword arguments of :func:`read_run`: all of them key the run cache."""
+
+    delimiter: str
+    time_column: str
+    temperature_column: str
+    channel_columns: list[str]
+    keep_extra_columns: bool
+    time_scale_to_s: float
+    factor: int
+    rate_hz: float
+    min_count: int
+
+
+def load_session(
+    path: str | Path,
+    *,
+    decimation_factor: int = 10,
+    min_count: int = 1,
+    cache: CacheSetting = True,
+) -> Session:
     """Read a session folder, streaming every log through the Rust reader and decimator.
 
     Parameters
@@ -410,6 +444,11 @@ def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: in
         Raw samples per block: 10 turns 20 Hz into 2 Hz, as in the seed paper.
     min_count : int, default 1
         Blocks with fewer valid raw samples are dropped.
+    cache : bool, str or os.PathLike, default True
+        The persistent run cache (:mod:`accelcore.cache`). True: the default
+        folder, ``$ACCELCORE_CACHE_DIR``, else ``$XDG_CACHE_HOME/accelcore/runs``,
+        else ``~/.cache/accelcore/runs`` (off when ``ACCELCORE_CACHE=0``); a
+        path: that folder; False: never read or write a cache.
 
     Returns
     -------
@@ -424,6 +463,24 @@ def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: in
         A log cannot be parsed; ``.path``, ``.line`` and ``.column`` say where.
     accelcore.AccelcoreIOError
         The folder or a run file does not exist or cannot be read.
+
+    Warns
+    -----
+    accelcore.cache.CacheWarning
+        The cache folder cannot be written (once per call); the result is the
+        same as without the cache.
+
+    Notes
+    -----
+    With the cache, the decimated blocks, reader statistics and SHA-256 of each
+    run file are kept, keyed by the file's resolved path, every reader parameter
+    (``session.toml``'s delimiter, columns and time unit, ``rate_hz``,
+    ``decimation_factor``, ``min_count``) and the accelcore version. An entry is
+    used only while the file's size, mtime, ctime, inode and device are
+    unchanged, so a repeat load of an archived session skips parsing and
+    hashing and gives an identical :class:`Session`. Files changed less than
+    2 s before they are read are not cached. ``session.toml`` is always read
+    and hashed.
     """
     folder = Path(path)
     meta = _read_toml(folder)
@@ -481,46 +538,65 @@ def load_session(path: str | Path, *, decimation_factor: int = 10, min_count: in
             raise AccelcoreIOError(f"{file}: run file does not exist ({where}, [[run]] #{i})")
         specs.append((str(table["orientation"]).strip().upper(), gravity, file))
 
-    def read(file: Path) -> Any:
-        return read_run(
-            str(file),
-            delimiter=DELIMITERS[delimiter],
-            time_column=columns["time"],
-            temperature_column=columns["temperature"],
-            channel_columns=[columns["x"], columns["y"], columns["z"]],
-            keep_extra_columns=True,
-            time_scale_to_s=TIME_UNITS[time_unit],
-            factor=decimation_factor,
-            rate_hz=float(rate_hz),
-            min_count=min_count,
-        )
+    params: _ReadParams = {
+        "delimiter": DELIMITERS[delimiter],
+        "time_column": columns["time"],
+        "temperature_column": columns["temperature"],
+        "channel_columns": [columns["x"], columns["y"], columns["z"]],
+        "keep_extra_columns": True,
+        "time_scale_to_s": TIME_UNITS[time_unit],
+        "factor": decimation_factor,
+        "rate_hz": float(rate_hz),
+        "min_count": min_count,
+    }
 
-    # The Rust reader releases the GIL and hashlib does for large blocks: read the
-    # runs and hash every file (provenance) on all cores at once.
-    files = [folder / "session.toml"] + [f for _, _, f in specs]
-    with ThreadPoolExecutor(max_workers=min(len(files), os.cpu_count() or 1)) as pool:
-        hashes = pool.map(_sha256, files)
-        results = pool.map(read, [f for _, _, f in specs])
-        runs = []
-        for (orientation, gravity, file), data in zip(specs, results, strict=True):
-            stats = RunStats(
-                n_rows=data.n_rows,
-                n_skipped_nonfinite=data.n_skipped_nonfinite,
-                n_truncated_rows=data.n_truncated_rows,
-                n_gaps=data.n_gaps,
-                max_interval_s=data.max_interval_s,
-                duration_s=data.last_time_s - data.first_time_s,
-                channel_min=data.channel_min,
-                channel_max=data.channel_max,
-                n_at_min=data.n_at_min,
-                n_at_max=data.n_at_max,
-            )
-            runs.append(
-                _make_run(
-                    orientation, gravity, data.blocks, data.channel_names[3:], str(file), stats
-                )
-            )
-        file_sha256 = {f.name: h for f, h in zip(files, hashes, strict=True)}
+    def read(file: Path) -> RunRecord:
+        return RunRecord.from_run_data(read_run(str(file), **params))
+
+    toml_file = folder / "session.toml"
+    run_files = [f for _, _, f in specs]
+    store = RunCache.open(cache)
+    found: list[tuple[RunRecord, str] | None] = [None] * len(run_files)
+    probes: list[Probe | None] = [None] * len(run_files)
+    if store is not None:
+        for i, file in enumerate(run_files):
+            found[i], probes[i] = store.lookup(file, params)
+    missing = [i for i, hit in enumerate(found) if hit is None]
+    to_hash = [toml_file] + [run_files[i] for i in missing]
+    if missing:
+        # The Rust reader releases the GIL and hashlib does for large blocks: read the
+        # runs and hash every file (provenance) on all cores at once.
+        with ThreadPoolExecutor(max_workers=min(len(to_hash), os.cpu_count() or 1)) as pool:
+            pending_hashes = pool.map(_sha256, to_hash)
+            pending_records = pool.map(read, [run_files[i] for i in missing])
+            hashes = list(pending_hashes)
+            records = list(pending_records)
+    else:
+        hashes, records = [_sha256(toml_file)], []
+    fresh = {i: (rec, sha) for i, rec, sha in zip(missing, records, hashes[1:], strict=True)}
+    if store is not None:
+        for i, (rec, sha) in fresh.items():
+            store.store(probes[i], rec, sha)  # only if the file did not change meanwhile
+        store.finish()
+    runs = []
+    file_sha256 = {toml_file.name: hashes[0]}
+    for i, (orientation, gravity, file) in enumerate(specs):
+        data, file_sha256[file.name] = found[i] or fresh[i]
+        stats = RunStats(
+            n_rows=data.n_rows,
+            n_skipped_nonfinite=data.n_skipped_nonfinite,
+            n_truncated_rows=data.n_truncated_rows,
+            n_gaps=data.n_gaps,
+            max_interval_s=data.max_interval_s,
+            duration_s=data.last_time_s - data.first_time_s,
+            channel_min=data.channel_min,
+            channel_max=data.channel_max,
+            n_at_min=data.n_at_min,
+            n_at_max=data.n_at_max,
+        )
+        runs.append(
+            _make_run(orientation, gravity, data.blocks, data.channel_names[3:], str(file), stats)
+        )
     sensor = meta.get("sensor") or None
     serial = meta.get("serial") or None
     return Session(

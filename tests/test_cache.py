@@ -1,0 +1,587 @@
+"""The persistent run cache of load_session (accelcore.cache): a hit gives the very
+Session a cold read gives, and nothing that changed a file, or the way it is read,
+is ever served from the cache."""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import json
+import os
+import shutil
+import time
+import warnings
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import accelcore
+from accelcore import cache, simulate
+from accelcore import session as session_module
+from accelcore.cache import CacheWarning
+from accelcore.cli import build_parser, main
+from accelcore.session import Session, load_session
+
+real_read_run = accelcore._accelcore.read_run
+
+#: Every test that changes files gets its own copy, aged once for the module.
+COPIES = (
+    "shared",
+    "append",
+    "rewrite",
+    "mapping",
+    "during",
+    "cli",
+    "unwritable",
+    "prune",
+    "corrupt",
+    "archive/part0",
+)
+
+
+def age(paths: list[Path]) -> None:
+    """Put mtimes 10 s back and wait until ctimes are RACY_WINDOW_NS old (utime sets ctime)."""
+    back = time.time_ns() - 10_000_000_000
+    for p in paths:
+        os.utime(p, ns=(back, back))
+    newest = max(p.stat().st_ctime_ns for p in paths)
+    wait_ns = newest + cache.RACY_WINDOW_NS + 50_000_000 - time.time_ns()
+    if wait_ns > 0:
+        time.sleep(wait_ns / 1e9)
+
+
+def files_of(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.iterdir() if p.is_file())
+
+
+@pytest.fixture(scope="module")
+def aged(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Small six-run sessions (with an extra column) whose files the racy rule allows caching."""
+    root = tmp_path_factory.mktemp("aged")
+    simulate.session(
+        root / "shared", duration_h=0.05, soak_min=0.5, seed=5, extra_columns=("supply_v",)
+    )
+    for name in COPIES[1:]:
+        shutil.copytree(root / "shared", root / name)
+    age([f for name in COPIES for f in files_of(root / name)])
+    return {name: root / name for name in COPIES}
+
+
+def entries(folder: Path) -> list[Path]:
+    return sorted(folder.glob("*.npz")) if folder.is_dir() else []
+
+
+def assert_identical(a: Any, b: Any, where: str = "session") -> None:
+    """Equal field by field; arrays bit for bit, with the same dtype and shape."""
+    if isinstance(a, np.ndarray):
+        assert isinstance(b, np.ndarray), where
+        assert a.dtype == b.dtype and a.shape == b.shape, where
+        assert a.tobytes() == b.tobytes(), where
+        assert b.flags.c_contiguous, where
+    elif dataclasses.is_dataclass(a) and not isinstance(a, type):
+        assert type(a) is type(b), where
+        for f in dataclasses.fields(a):
+            assert_identical(getattr(a, f.name), getattr(b, f.name), f"{where}.{f.name}")
+    elif isinstance(a, dict):
+        assert list(a) == list(b), where
+        for k in a:
+            assert_identical(a[k], b[k], f"{where}[{k!r}]")
+    elif isinstance(a, tuple):
+        assert isinstance(b, tuple) and len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            assert_identical(x, y, f"{where}[{i}]")
+    else:
+        assert type(a) is type(b) and a == b, f"{where}: {a!r} != {b!r}"
+
+
+@pytest.fixture
+def no_reading(monkeypatch: pytest.MonkeyPatch) -> Callable[[], None]:
+    """Call it to make any read of a log fail: what follows must come from the cache."""
+
+    def forbid() -> None:
+        def fail(*args: Any, **kwargs: Any) -> Any:
+            raise AssertionError(f"read_run called on a hit: {args}")
+
+        monkeypatch.setattr(session_module, "read_run", fail)
+
+    return forbid
+
+
+def test_warm_hit_is_identical_to_a_cold_read(
+    aged: dict[str, Path], tmp_path: Path, no_reading: Callable[[], None]
+) -> None:
+    folder, store = aged["shared"], tmp_path / "cache"
+    cold = load_session(folder, cache=False)
+    assert not store.exists()
+    first = load_session(folder, cache=store)
+    assert len(entries(store)) == 6
+    no_reading()
+    warm = load_session(folder, cache=store)
+    assert warm.runs[0].extras and warm.runs[0].stats.n_rows == 3600
+    assert_identical(cold, first)
+    assert_identical(cold, warm)
+    assert warm.file_hashes() == cold.file_hashes()
+    assert len(warm.file_sha256) == 7
+    # Everything downstream is the same too.
+    assert_identical(
+        accelcore.calibrate(cold, method="paper").to_dict(),
+        accelcore.calibrate(warm, method="paper").to_dict(),
+    )
+
+
+def test_entries_hold_no_pickles_and_say_what_they_are(
+    aged: dict[str, Path], tmp_path: Path
+) -> None:
+    load_session(aged["shared"], cache=tmp_path)
+    for entry in entries(tmp_path):
+        with np.load(entry, allow_pickle=False) as npz:
+            assert sorted(npz.files) == ["floats", "ints", "meta"]
+            meta = json.loads(bytes(npz["meta"]).decode())
+        assert meta["format"] == cache.FORMAT and meta["accelcore"] == accelcore.__version__
+        assert Path(meta["path"]).is_absolute() and meta["path"].endswith(".csv")
+        assert meta["params"]["factor"] == 10 and meta["params"]["delimiter"] == ","
+        assert len(meta["fingerprint"]) == 5 and len(meta["sha256"]) == 64
+        assert entry.name == f"{meta['key']}.npz"
+
+
+def test_appending_a_row_is_a_miss_and_the_row_shows_up(
+    aged: dict[str, Path], tmp_path: Path
+) -> None:
+    folder, store = aged["append"], tmp_path
+    before = load_session(folder, cache=store)
+    log = folder / "x_pos.csv"
+    with log.open("a") as fh:
+        fh.write("180.00,65.010,1.793518,1.486816,1.495667,3.00037\n")
+    after = load_session(folder, cache=store)
+    assert after.runs[0].stats.n_rows == before.runs[0].stats.n_rows + 1
+    assert after.runs[0].stats.duration_s == pytest.approx(180.0)
+    assert after.file_sha256["x_pos.csv"] != before.file_sha256["x_pos.csv"]
+    assert_identical(after, load_session(folder, cache=False))
+    # The other runs were hits and are unchanged.
+    assert_identical(after.runs[1:], before.runs[1:])
+
+
+def test_same_size_rewrite_with_the_old_mtime_is_a_miss(
+    aged: dict[str, Path], tmp_path: Path
+) -> None:
+    """ctime catches a rewrite that keeps the size and puts the mtime back."""
+    folder, store = aged["rewrite"], tmp_path
+    log = folder / "y_neg.csv"
+    before = load_session(folder, cache=store)
+    st = log.stat()
+    lines = log.read_text().splitlines(keepends=True)
+    fields = lines[5].split(",")
+    fields[2] = fields[2][:-1] + ("1" if fields[2][-1] != "1" else "2")  # same width
+    lines[5] = ",".join(fields)
+    log.write_text("".join(lines))
+    os.utime(log, ns=(st.st_atime_ns, st.st_mtime_ns))
+    now = log.stat()
+    assert (now.st_size, now.st_mtime_ns, now.st_ino) == (st.st_size, st.st_mtime_ns, st.st_ino)
+    after = load_session(folder, cache=store)
+    assert after.file_sha256["y_neg.csv"] != before.file_sha256["y_neg.csv"]
+    assert_identical(after, load_session(folder, cache=False))
+    assert after.runs[3].output[0, 0] != before.runs[3].output[0, 0]
+
+
+def test_a_decimation_factor_is_a_separate_entry(
+    aged: dict[str, Path], tmp_path: Path, no_reading: Callable[[], None]
+) -> None:
+    folder = aged["shared"]
+    cold10 = load_session(folder, cache=False)
+    cold5 = load_session(folder, decimation_factor=5, cache=False)
+    cold5_min = load_session(folder, decimation_factor=5, min_count=5, cache=False)
+    load_session(folder, cache=tmp_path)
+    assert len(entries(tmp_path)) == 6
+    load_session(folder, decimation_factor=5, cache=tmp_path)
+    assert len(entries(tmp_path)) == 12
+    load_session(folder, decimation_factor=5, min_count=5, cache=tmp_path)
+    assert len(entries(tmp_path)) == 18
+    no_reading()
+    assert_identical(load_session(folder, cache=tmp_path), cold10)
+    assert_identical(load_session(folder, decimation_factor=5, cache=tmp_path), cold5)
+    warm5_min = load_session(folder, decimation_factor=5, min_count=5, cache=tmp_path)
+    assert_identical(warm5_min, cold5_min)
+    assert len(cold5.runs[0]) == 2 * len(cold10.runs[0])
+
+
+def _rewrite_meta(entry: Path, **changes: Any) -> None:
+    with np.load(entry, allow_pickle=False) as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    meta = json.loads(bytes(arrays["meta"]).decode())
+    meta.update(changes)
+    arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
+    with entry.open("wb") as fh:
+        np.savez(fh, **arrays)
+
+
+def _drop_member(entry: Path, name: str) -> None:
+    with np.load(entry, allow_pickle=False) as npz:
+        arrays = {k: npz[k] for k in npz.files if k != name}
+    with entry.open("wb") as fh:
+        np.savez(fh, **arrays)
+
+
+def _short_floats(entry: Path) -> None:
+    with np.load(entry, allow_pickle=False) as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    arrays["floats"] = arrays["floats"][:-1]
+    with entry.open("wb") as fh:
+        np.savez(fh, **arrays)
+
+
+def _pickled_meta(entry: Path) -> None:
+    with entry.open("wb") as fh:
+        np.savez(fh, meta=np.array([{"format": 1}], dtype=object))
+
+
+CORRUPTIONS: dict[str, Callable[[Path], object]] = {
+    "truncated": lambda e: e.write_bytes(e.read_bytes()[: e.stat().st_size // 2]),
+    "empty": lambda e: e.write_bytes(b""),
+    "garbage": lambda e: e.write_bytes(os.urandom(4096)),
+    "flipped byte": lambda e: e.write_bytes(
+        (lambda b: b[:2000] + bytes([b[2000] ^ 0xFF]) + b[2001:])(e.read_bytes())
+    ),
+    "other format": lambda e: _rewrite_meta(e, format=cache.FORMAT + 1),
+    "other version": lambda e: _rewrite_meta(e, accelcore="0.0.0-other"),
+    "other key": lambda e: _rewrite_meta(e, key="0" * 64),
+    "bad fingerprint type": lambda e: _rewrite_meta(e, fingerprint="x"),
+    "bad hash": lambda e: _rewrite_meta(e, sha256="not a hash"),
+    "negative count": lambda e: _rewrite_meta(e, n_rows=-1),
+    "wrong block count": lambda e: _rewrite_meta(e, n_blocks=3),
+    "missing member": lambda e: _drop_member(e, "ints"),
+    "short member": _short_floats,
+    "pickled": _pickled_meta,
+}
+
+
+@pytest.mark.parametrize("how", list(CORRUPTIONS))
+def test_a_bad_entry_is_a_miss_and_is_replaced(
+    aged: dict[str, Path], tmp_path: Path, how: str
+) -> None:
+    folder = aged["shared"]
+    cold = load_session(folder, cache=False)
+    load_session(folder, cache=tmp_path)
+    for entry in entries(tmp_path)[:2]:
+        CORRUPTIONS[how](entry)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        again = load_session(folder, cache=tmp_path)
+    assert_identical(again, cold)
+    assert len(entries(tmp_path)) == 6
+    hits = cache.RunCache(tmp_path)
+    for f in files_of(folder):
+        if f.suffix == ".csv":
+            hit, _ = hits.lookup(f, _params_of(folder))
+            assert hit is not None, f  # replaced by a good entry
+    assert_identical(load_session(folder, cache=tmp_path), cold)
+
+
+def _params_of(folder: Path, factor: int = 10) -> dict[str, Any]:
+    """The reader parameters load_session uses for the simulated sessions."""
+    return {
+        "delimiter": ",",
+        "time_column": "time_s",
+        "temperature_column": "temp_c",
+        "channel_columns": ["x", "y", "z"],
+        "keep_extra_columns": True,
+        "time_scale_to_s": 1.0,
+        "factor": factor,
+        "rate_hz": 20.0,
+        "min_count": 1,
+    }
+
+
+def test_a_corrupt_entry_in_the_default_folder_is_a_miss(
+    aged: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("ACCELCORE_CACHE_DIR", str(tmp_path))
+    folder = aged["corrupt"]
+    first = load_session(folder)
+    assert len(entries(tmp_path)) == 6
+    for entry in entries(tmp_path):
+        entry.write_bytes(b"PK\x03\x04 not really a zip")
+    assert_identical(load_session(folder), first)
+
+
+def test_a_fresh_file_is_not_cached(tmp_path: Path) -> None:
+    """The racy rule: a file changed less than 2 s ago may still be growing."""
+    folder = tmp_path / "fresh"
+    simulate.session(folder, duration_h=0.05, soak_min=0.5, seed=6)
+    session = load_session(folder, cache=tmp_path / "cache")
+    assert entries(tmp_path / "cache") == []
+    assert_identical(session, load_session(folder, cache=False))
+
+
+def test_an_old_mtime_with_a_fresh_ctime_is_not_cached(tmp_path: Path) -> None:
+    """Putting the mtime back does not make a just-written file safe to cache."""
+    folder = tmp_path / "touched"
+    simulate.session(folder, duration_h=0.05, soak_min=0.5, seed=6)
+    back = time.time_ns() - 3600 * 1_000_000_000
+    for f in files_of(folder):
+        os.utime(f, ns=(back, back))
+    load_session(folder, cache=tmp_path / "cache")
+    assert entries(tmp_path / "cache") == []
+
+
+def test_a_file_that_changes_while_it_is_read_is_not_cached(
+    aged: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    folder = aged["during"]
+    real = real_read_run
+    log = folder / "z_pos.csv"
+
+    def read_then_append(path: str, **kwargs: Any) -> Any:
+        result = real(path, **kwargs)
+        if Path(path) == log:
+            with log.open("a") as fh:
+                fh.write("180.00,65.010,1.793518,1.486816,1.495667,3.00037\n")
+        return result
+
+    monkeypatch.setattr(session_module, "read_run", read_then_append)
+    first = load_session(folder, cache=tmp_path)
+    monkeypatch.setattr(session_module, "read_run", real)
+    assert len(entries(tmp_path)) == 5  # all but the one that changed
+    second = load_session(folder, cache=tmp_path)
+    assert second.runs[4].stats.n_rows == first.runs[4].stats.n_rows + 1
+    assert_identical(second, load_session(folder, cache=False))
+
+
+def test_cache_false_writes_nothing(
+    aged: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("ACCELCORE_CACHE_DIR", str(tmp_path / "default"))
+    load_session(aged["shared"], cache=False)
+    assert not (tmp_path / "default").exists()
+    monkeypatch.setenv("ACCELCORE_CACHE", "0")
+    load_session(aged["shared"])
+    assert not (tmp_path / "default").exists()
+    load_session(aged["shared"], cache=tmp_path / "explicit")  # a folder given still counts
+    assert len(entries(tmp_path / "explicit")) == 6
+    monkeypatch.delenv("ACCELCORE_CACHE")
+    load_session(aged["shared"])
+    assert len(entries(tmp_path / "default")) == 6
+
+
+def test_the_default_folder(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.setenv("ACCELCORE_CACHE_DIR", str(tmp_path / "a"))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache.resolve_dir(True) == tmp_path / "a"
+    monkeypatch.delenv("ACCELCORE_CACHE_DIR")
+    assert cache.resolve_dir(True) == tmp_path / "xdg" / "accelcore" / "runs"
+    monkeypatch.setenv("XDG_CACHE_HOME", "relative/ignored")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert cache.resolve_dir(True) == tmp_path / "home" / ".cache" / "accelcore" / "runs"
+    assert cache.default_dir() == cache.resolve_dir(True)
+    for off in ("0", "false", "off"):
+        monkeypatch.setenv("ACCELCORE_CACHE", off)
+        assert cache.resolve_dir(True) is None
+    assert cache.resolve_dir(False) is None
+    assert cache.resolve_dir(tmp_path / "b") == tmp_path / "b"
+    assert cache.resolve_dir(str(tmp_path / "c")) == tmp_path / "c"
+    with pytest.raises(TypeError, match="cache must be"):
+        cache.resolve_dir(1)  # type: ignore[arg-type]
+
+
+@pytest.mark.skipif(
+    not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root ignores file permissions"
+)
+def test_an_unwritable_cache_folder_warns_once(aged: dict[str, Path], tmp_path: Path) -> None:
+    store = tmp_path / "ro"
+    store.mkdir()
+    store.chmod(0o500)
+    try:
+        with pytest.warns(CacheWarning, match="cannot write the run cache") as caught:
+            session = load_session(aged["unwritable"], cache=store)
+    finally:
+        store.chmod(0o700)
+    assert len(caught) == 1
+    assert_identical(session, load_session(aged["unwritable"], cache=False))
+    assert entries(store) == []
+
+
+def test_a_cache_path_that_is_a_file_warns_once(aged: dict[str, Path], tmp_path: Path) -> None:
+    """Cannot be written, even by root: the result is the same, with one warning."""
+    store = tmp_path / "a-file"
+    store.write_text("not a folder")
+    with pytest.warns(CacheWarning, match="cannot write the run cache") as caught:
+        session = load_session(aged["unwritable"], cache=store / "runs")
+    assert len(caught) == 1
+    assert issubclass(CacheWarning, accelcore.errors.AccelcoreWarning)
+    assert_identical(session, load_session(aged["unwritable"], cache=False))
+
+
+def test_a_full_disk_warns_once_and_leaves_no_temporary_file(
+    aged: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def full(*args: Any, **kwargs: Any) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(np, "savez", full)
+    with pytest.warns(CacheWarning, match="No space left") as caught:
+        session = load_session(aged["unwritable"], cache=tmp_path)
+    assert len(caught) == 1
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.undo()
+    assert_identical(session, load_session(aged["unwritable"], cache=False))
+
+
+def _set_mtime(paths: list[Path], seconds_ago: float) -> None:
+    t = time.time_ns() - int(seconds_ago * 1e9)
+    for p in paths:
+        os.utime(p, ns=(t, t))
+
+
+def test_pruning_keeps_the_folder_under_its_bound(
+    aged: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    folder, store = aged["prune"], tmp_path / "cache"
+    load_session(folder, decimation_factor=5, cache=tmp_path / "scratch")
+    size5 = sum(e.stat().st_size for e in entries(tmp_path / "scratch"))
+    load_session(folder, cache=store)
+    tens = entries(store)
+    largest10 = max(e.stat().st_size for e in tens)
+    _set_mtime(tens, 100)
+    # Room for the six factor-5 entries and two factor-10 entries.
+    bound = size5 + 2 * largest10
+    monkeypatch.setenv("ACCELCORE_CACHE_MAX_MB", str(bound / 1e6))
+    load_session(folder, decimation_factor=5, cache=store)
+    kept = entries(store)
+    assert sum(e.stat().st_size for e in kept) <= bound
+    assert len(set(kept) - set(tens)) == 6  # the new entries stay ...
+    assert 1 <= len(set(kept) & set(tens)) <= 2  # ... the least recently used went first
+    monkeypatch.setenv("ACCELCORE_CACHE_MAX_MB", "0")
+    load_session(folder, decimation_factor=4, cache=store)
+    assert entries(store) == []
+
+
+def test_a_hit_counts_as_a_use_for_pruning(aged: dict[str, Path], tmp_path: Path) -> None:
+    folder = aged["prune"]
+    load_session(folder, cache=tmp_path)
+    tens = entries(tmp_path)
+    load_session(folder, decimation_factor=5, cache=tmp_path)
+    fives = sorted(set(entries(tmp_path)) - set(tens))
+    _set_mtime(tens, 200)
+    _set_mtime(fives, 100)  # the factor-5 entries were used more recently ...
+    load_session(folder, cache=tmp_path)  # ... until the factor-10 ones are hits
+    size10 = sum(e.stat().st_size for e in tens)
+    assert cache.prune(tmp_path, max_bytes=size10 + 100) == 6
+    assert entries(tmp_path) == tens
+
+
+def test_pruning_removes_stale_temporary_files_only(tmp_path: Path) -> None:
+    old, new = tmp_path / ".tmp-old.npz", tmp_path / ".tmp-new.npz"
+    other = tmp_path / "notes.txt"
+    for p in (old, new, other):
+        p.write_bytes(b"x" * 10)
+    _set_mtime([old], 7200)
+    assert cache.prune(tmp_path, max_bytes=1e9) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".tmp-new.npz", "notes.txt"]
+
+
+def test_clear(aged: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    load_session(aged["shared"], cache=tmp_path)
+    (tmp_path / "keep.txt").write_text("not an entry")
+    assert cache.clear(tmp_path) == 6
+    assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
+    assert cache.clear(tmp_path / "missing") == 0
+    monkeypatch.setenv("ACCELCORE_CACHE_DIR", str(tmp_path / "default"))
+    load_session(aged["shared"])
+    assert cache.clear() == 6
+
+
+def test_the_key_covers_everything_that_changes_the_result(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    base = _params_of(Path("."))
+    key = cache.entry_key("/data/s/x_pos.csv", base)
+    assert key == cache.entry_key("/data/s/x_pos.csv", dict(reversed(list(base.items()))))
+    changed = {
+        "delimiter": ";",
+        "time_column": "t",
+        "temperature_column": "die_c",
+        "channel_columns": ["y", "x", "z"],
+        "keep_extra_columns": False,
+        "time_scale_to_s": 1e-3,
+        "factor": 5,
+        "rate_hz": 100.0,
+        "min_count": 2,
+    }
+    assert set(changed) == set(base)
+    keys = {key, cache.entry_key("/data/t/x_pos.csv", base)}
+    for name, value in changed.items():
+        keys.add(cache.entry_key("/data/s/x_pos.csv", {**base, name: value}))
+    monkeypatch.setattr(cache, "__version__", "9.9.9")
+    keys.add(cache.entry_key("/data/s/x_pos.csv", base))
+    monkeypatch.setattr(cache, "FORMAT", cache.FORMAT + 1)
+    keys.add(cache.entry_key("/data/s/x_pos.csv", base))
+    assert len(keys) == 2 + len(changed) + 2
+
+
+def test_a_new_column_mapping_is_a_miss(
+    aged: dict[str, Path], tmp_path: Path, no_reading: Callable[[], None]
+) -> None:
+    folder = aged["mapping"]
+    original = load_session(folder, cache=tmp_path)
+    toml = folder / "session.toml"
+    text = toml.read_text()
+    swapped = text.replace('x = "x"\ny = "y"\n', 'x = "y"\ny = "x"\n')
+    assert swapped != text
+    toml.write_text(swapped)
+    remapped = load_session(folder, cache=tmp_path)
+    assert len(entries(tmp_path)) == 12
+    np.testing.assert_array_equal(remapped.runs[0].output[:, 0], original.runs[0].output[:, 1])
+    assert remapped.file_sha256["session.toml"] != original.file_sha256["session.toml"]
+    no_reading()
+    assert_identical(load_session(folder, cache=tmp_path), remapped)
+    toml.write_text(text)
+    assert_identical(load_session(folder, cache=tmp_path), original)
+
+
+def test_every_command_that_loads_a_session_has_no_cache() -> None:
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    choices: dict[str, Any] = sub.choices  # type: ignore[assignment]
+    for command in ("calibrate", "diagnose", "report", "bulk", "demo"):
+        assert "--no-cache" in choices[command].format_help(), command
+
+
+@pytest.fixture
+def cli_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
+    monkeypatch.setenv("ACCELCORE_CACHE_DIR", str(tmp_path / "cli-cache"))
+    yield tmp_path / "cli-cache"
+
+
+@pytest.mark.parametrize("command", ["calibrate", "diagnose"])
+def test_cli_no_cache(aged: dict[str, Path], cli_cache: Path, command: str) -> None:
+    folder = str(aged["cli"])
+    out = io.StringIO()
+    assert main([command, folder, "--no-cache", "--json", "-"], stdout=out) == 0
+    assert entries(cli_cache) == []
+    assert main([command, folder, "--json", "-"], stdout=io.StringIO()) == 0
+    assert len(entries(cli_cache)) == 6
+    again = io.StringIO()
+    assert main([command, folder, "--json", "-"], stdout=again) == 0
+    assert json.loads(again.getvalue())["result"] == json.loads(out.getvalue())["result"]
+
+
+def test_bulk_passes_the_cache_setting(aged: dict[str, Path], tmp_path: Path) -> None:
+    from accelcore.bulk import bulk
+
+    archive = aged["archive/part0"].parent
+    bulk(archive, tmp_path / "off", jobs=1, diagnose=False, progress=False, cache=False)
+    assert entries(tmp_path / "cache") == []
+    bulk(archive, tmp_path / "on", jobs=1, diagnose=False, progress=False, cache=tmp_path / "cache")
+    assert len(entries(tmp_path / "cache")) == 6
+
+
+def test_session_from_a_hit_is_a_plain_session(aged: dict[str, Path], tmp_path: Path) -> None:
+    load_session(aged["shared"], cache=tmp_path)
+    warm = load_session(aged["shared"], cache=tmp_path)
+    assert isinstance(warm, Session)
+    warm.check_orientations()
+    for run in warm.runs:
+        for a in (run.time_s, run.temperature_c, run.output, run.count):
+            assert a.flags.c_contiguous
