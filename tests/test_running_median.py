@@ -9,6 +9,8 @@ of an odd window is one of its values, and a zero median is ``+0.0`` as in
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -55,6 +57,15 @@ def test_matches_reference_bitwise(
 ) -> None:
     y = _series(n, seed, nan_fraction, pool_fraction)
     assert_bitwise_equal(running_median(y, window=window), reference.running_median(y, window))
+
+
+@pytest.mark.parametrize("n", [1000, 1001])
+def test_every_network_window_on_a_long_series(n: int) -> None:
+    # Windows up to 15 go through a selection network, 8 outputs at a time; wider
+    # ones through a sorted window. Many blocks, odd and even lengths, NaN and ties.
+    y = _series(n, n, 0.01, 0.3)
+    for window in range(1, 19):
+        assert_bitwise_equal(running_median(y, window=window), reference.running_median(y, window))
 
 
 @given(
@@ -147,6 +158,54 @@ def test_median_of_finite_is_np_median(n: int, seed: int, pool_fraction: float) 
         if values.size:
             want = np.array([np.median(values)])
             assert_bitwise_equal(np.array([_median_of_finite(values)]), want)
+
+
+@given(
+    n=st.integers(1, 200),
+    seed=seeds,
+    pool_fraction=st.sampled_from([0.0, 0.5, 0.9, 1.0]),
+    guess_from=st.sampled_from(["zero", "value", "other"]),
+)
+def test_median_of_finite_with_a_guess_is_np_median(
+    n: int, seed: int, pool_fraction: float, guess_from: str
+) -> None:
+    # A guess that is the median skips the partition; any other guess must not matter.
+    a = _series(n, seed, 0.0, pool_fraction)
+    a = a[np.isfinite(a)]
+    if a.size == 0:
+        return
+    guess = {"zero": 0.0, "value": float(a[seed % a.size]), "other": 0.123456789}[guess_from]
+    want = np.array([np.median(a)])
+    assert_bitwise_equal(np.array([_median_of_finite(a, guess=guess)]), want)
+    assert_bitwise_equal(np.array([_median_of_finite(a.copy(), overwrite=True)]), want)
+
+
+def _former_robust_sigma(r: FloatArray) -> float:
+    """The implementation before the fast paths, with np.median throughout."""
+    r = r[np.isfinite(r)]
+    if r.size == 0:
+        return 0.0
+    deviation = np.abs(r - np.median(r))
+    sigma = 1.4826 * float(np.median(deviation))
+    if sigma == 0.0:
+        sigma = math.sqrt(math.pi / 2) * float(np.mean(deviation))
+    return sigma
+
+
+@given(
+    n=st.integers(0, 300),
+    seed=seeds,
+    nan_fraction=st.sampled_from([0.0, 0.0, 0.1]),
+    zero_fraction=st.sampled_from([0.0, 0.2, 0.6, 0.95]),
+)
+def test_robust_sigma_matches_the_former_implementation(
+    n: int, seed: int, nan_fraction: float, zero_fraction: float
+) -> None:
+    # Exact zeros make 0 the median (the counting path) or the MAD 0 (the fallback).
+    r = _series(n, seed, nan_fraction, 0.2)
+    r[np.random.default_rng(seed + 1).random(n) < zero_fraction] = 0.0
+    got, want = np.array([_robust_sigma(r)]), np.array([_former_robust_sigma(r)])
+    assert_bitwise_equal(got, want)
 
 
 def test_robust_sigma_is_unchanged() -> None:

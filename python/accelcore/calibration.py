@@ -1032,7 +1032,12 @@ def _fit_paper(
         if note:
             excluded.append(note)
         use = weight > 0
-        b.push(run.time_s[use], run.temperature_c[use], run.output[use])
+        if use.all():
+            b.push(run.time_s, run.temperature_c, run.output)
+        else:
+            # Row selection by index: boolean indexing of a 2-D array is several times slower.
+            rows = np.flatnonzero(use)
+            b.push(run.time_s[rows], run.temperature_c[rows], run.output.take(rows, axis=0))
         if run.orientation in binners:
             binners[run.orientation].merge(b)  # repeat sweeps of one orientation
         else:

@@ -245,9 +245,11 @@ def _check_clipping(
             ("maximum", hi, int(stats.n_at_max[c])),
         ):
             # A pile-up at the extreme, and whole blocks sitting on it: a rail, not
-            # the tail of quantised noise.
+            # the tail of quantised noise. The blocks are only counted for a pile-up.
+            if n < threshold:
+                continue
             on_rail = np.abs(run.output[:, c] - value) <= 1e-12 * max(1.0, abs(value))
-            if n >= threshold and int(np.count_nonzero(on_rail)) >= min_blocks:
+            if int(np.count_nonzero(on_rail)) >= min_blocks:
                 out.append(
                     QualityIssue(
                         "clipping",
@@ -270,27 +272,52 @@ def _running_median(y: NDArray[np.float64], window: int) -> NDArray[np.float64]:
 
 def _robust_sigma(r: NDArray[np.float64]) -> float:
     """Robust standard deviation of ``r``: MAD, else mean absolute deviation, else 0."""
-    r = r[np.isfinite(r)]
+    finite = np.isfinite(r)
+    if not finite.all():
+        r = r[finite]
     if r.size == 0:
         return 0.0
-    deviation = np.abs(r - _median_of_finite(r))
-    sigma = MAD_TO_SIGMA * _median_of_finite(deviation)
+    # Residuals and differences are exactly 0 at many blocks (a running median is one
+    # of its window's values), so 0 is usually their median: checked by counting.
+    center = _median_of_finite(r, guess=0.0)
+    deviation = np.subtract(r, center)
+    np.abs(deviation, out=deviation)
+    sigma = MAD_TO_SIGMA * _median_of_finite(deviation, overwrite=True)
     if sigma == 0.0:
-        sigma = math.sqrt(math.pi / 2) * float(np.mean(deviation))
+        # The partition above reordered `deviation`; the mean is taken in input order.
+        sigma = math.sqrt(math.pi / 2) * float(np.mean(np.abs(r - center)))
     return sigma
 
 
-def _median_of_finite(a: NDArray[np.float64]) -> float:
+def _median_of_finite(
+    a: NDArray[np.float64], *, overwrite: bool = False, guess: float | None = None
+) -> float:
     """``float(np.median(a))`` of a non-empty 1-D array without NaN, several times faster.
 
     ``np.median`` partitions at two ranks (the middle and, for its NaN check, the
     last), which NumPy's vectorised selection does not handle; one rank it does. The
     result is bitwise the same: the middle value, or the mean of the two middle
-    values, summed from +0.0 as ``np.mean`` does (so a zero median is +0.0).
+    values, summed from +0.0 as ``np.mean`` does (so a zero median is +0.0). With
+    ``overwrite`` the values of ``a`` are reordered in place instead of copied.
+
+    A ``guess`` is tried first, by counting the values below and equal to it: when
+    the middle rank(s) fall among the equal ones, the median is the guess and no
+    partition is needed (values that compare equal are bitwise equal, or both zero).
     """
-    k = a.shape[0] // 2
-    part = np.partition(a, k)
-    if a.shape[0] % 2:
+    n = a.shape[0]
+    k = n // 2
+    if guess is not None:
+        below = int(np.count_nonzero(a < guess))
+        if below <= k - 1 + n % 2 and below + int(np.count_nonzero(a == guess)) > k:
+            if n % 2:
+                return float(0.0 + guess)
+            return float((0.0 + guess + guess) / 2)
+    if overwrite:
+        a.partition(k)
+        part = a
+    else:
+        part = np.partition(a, k)
+    if n % 2:
         return float(0.0 + part[k])
     return float((0.0 + part[:k].max() + part[k]) / 2)
 
@@ -472,8 +499,8 @@ def excluded_blocks(
     spikes = np.zeros(n, dtype=bool)
     clipped = np.zeros(n, dtype=bool)
     if n >= 2 * outlier_window:
-        for c in range(3):
-            y = run.output[:, c]
+        # One copy makes the three channels contiguous (the kernel would copy each).
+        for y in np.ascontiguousarray(run.output[:, :3].T):
             resid = y - _running_median(y, outlier_window)
             sigma = _robust_sigma(resid)
             if sigma > 0.0:
