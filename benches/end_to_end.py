@@ -51,7 +51,7 @@ def prime_cache(path: Path, folder: Path) -> int:
     if wait_ns > 0:
         time.sleep(wait_ns / 1e9)
     with_accelcore(path, folder)
-    return sum(1 for f in os.scandir(folder) if f.name.endswith(".npz"))
+    return sum(1 for f in os.scandir(folder) if f.name.endswith(cache.SUFFIX))
 
 
 def with_pandas(path: Path) -> dict[str, Any]:
@@ -120,7 +120,7 @@ def run(ctx: Context) -> list[Table]:
         unit="MB",
         amount=mb,
         note=f"cache primed by one untimed call ({written} entries, "
-        f"{sum(f.stat().st_size for f in folder.glob('*.npz')) / 1e6:.1f} MB); "
+        f"{sum(f.stat().st_size for f in folder.glob('*' + cache.SUFFIX)) / 1e6:.1f} MB); "
         "session.toml still read and hashed",
     )
     table.rows.insert(1, warm)

@@ -9,6 +9,7 @@ import io
 import json
 import os
 import shutil
+import struct
 import time
 import warnings
 from collections.abc import Callable, Iterator
@@ -71,7 +72,48 @@ def aged(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 
 def entries(folder: Path) -> list[Path]:
-    return sorted(folder.glob("*.npz")) if folder.is_dir() else []
+    return sorted(folder.glob(f"*{cache.SUFFIX}")) if folder.is_dir() else []
+
+
+#: The entry layout, as docs/cache.md describes it (written out again here, on purpose).
+HEADER = struct.Struct("<8sQQQQ")  # magic, meta_len, n_floats, n_ints, checksum
+MAGIC = b"ACRUN\x00\x01\x00"
+
+
+def word_sum(body: bytes) -> int:
+    return int(np.frombuffer(body, dtype="<u8").sum(dtype=np.uint64))
+
+
+def read_entry(entry: Path) -> tuple[dict[str, Any], np.ndarray, np.ndarray]:
+    """(metadata, floats, ints) of an entry, checking its header."""
+    raw = entry.read_bytes()
+    magic, meta_len, n_floats, n_ints, checksum = HEADER.unpack_from(raw)
+    assert magic == MAGIC and meta_len % 8 == 0
+    assert len(raw) == HEADER.size + meta_len + 8 * (n_floats + n_ints)
+    assert word_sum(raw[HEADER.size :]) == checksum
+    text = raw[HEADER.size : HEADER.size + meta_len]
+    assert text == text.rstrip(b" ") + b" " * (len(text) - len(text.rstrip(b" ")))
+    meta = json.loads(text.decode())
+    start = HEADER.size + meta_len
+    floats = np.frombuffer(raw, dtype="<f8", count=n_floats, offset=start)
+    ints = np.frombuffer(raw, dtype="<i8", count=n_ints, offset=start + 8 * n_floats)
+    return meta, floats, ints
+
+
+def write_entry(
+    entry: Path,
+    meta: dict[str, Any] | bytes,
+    floats: np.ndarray,
+    ints: np.ndarray,
+    magic: bytes = MAGIC,
+    checksum_delta: int = 0,
+) -> None:
+    """Write an entry in the documented layout (a consistent header unless told otherwise)."""
+    text = meta if isinstance(meta, bytes) else json.dumps(meta).encode()
+    text += b" " * (-len(text) % 8)
+    body = text + floats.astype("<f8").tobytes() + ints.astype("<i8").tobytes()
+    checksum = (word_sum(body) + checksum_delta) % (1 << 64)
+    entry.write_bytes(HEADER.pack(magic, len(text), len(floats), len(ints), checksum) + body)
 
 
 def assert_identical(a: Any, b: Any, where: str = "session") -> None:
@@ -132,19 +174,37 @@ def test_warm_hit_is_identical_to_a_cold_read(
     )
 
 
-def test_entries_hold_no_pickles_and_say_what_they_are(
+def test_entries_have_the_documented_layout_and_say_what_they_are(
     aged: dict[str, Path], tmp_path: Path
 ) -> None:
+    cold = load_session(aged["shared"], cache=False)
     load_session(aged["shared"], cache=tmp_path)
+    assert cache.FORMAT == 2 and cache.SUFFIX == ".acrun"
+    by_source = {Path(str(run.source)).name: run for run in cold.runs}
     for entry in entries(tmp_path):
-        with np.load(entry, allow_pickle=False) as npz:
-            assert sorted(npz.files) == ["floats", "ints", "meta"]
-            meta = json.loads(bytes(npz["meta"]).decode())
+        meta, floats, ints = read_entry(entry)
         assert meta["format"] == cache.FORMAT and meta["accelcore"] == accelcore.__version__
         assert Path(meta["path"]).is_absolute() and meta["path"].endswith(".csv")
         assert meta["params"]["factor"] == 10 and meta["params"]["delimiter"] == ","
         assert len(meta["fingerprint"]) == 5 and len(meta["sha256"]) == 64
-        assert entry.name == f"{meta['key']}.npz"
+        assert entry.name == f"{meta['key']}.acrun"
+        # The vectors hold the arrays in the documented order.
+        run = by_source[Path(meta["path"]).name]
+        n, k = meta["n_blocks"], len(meta["channel_names"])
+        assert n == len(run.time_s) and k == 4 and meta["channel_names"][3] == "supply_v"
+        assert len(floats) == n * (2 + k) + 2 * k + 3
+        assert len(ints) == n * (1 + meta["block_index"]) + 2 * k
+        np.testing.assert_array_equal(floats[:n], run.time_s)
+        np.testing.assert_array_equal(floats[n : 2 * n], run.temperature_c)
+        channels = floats[2 * n : (2 + k) * n].reshape(n, k)
+        np.testing.assert_array_equal(channels[:, :3], run.output)
+        np.testing.assert_array_equal(channels[:, 3], run.extras["supply_v"])
+        ranges = floats[(2 + k) * n : (2 + k) * n + 2 * k]
+        np.testing.assert_array_equal(ranges, np.r_[run.stats.channel_min, run.stats.channel_max])
+        assert floats[-3] == run.stats.max_interval_s
+        assert floats[-1] - floats[-2] == run.stats.duration_s
+        np.testing.assert_array_equal(ints[:n], run.count)
+        np.testing.assert_array_equal(ints[-k:].view(np.uint64), run.stats.n_at_max)
 
 
 def test_appending_a_row_is_a_miss_and_the_row_shows_up(
@@ -207,53 +267,63 @@ def test_a_decimation_factor_is_a_separate_entry(
     assert len(cold5.runs[0]) == 2 * len(cold10.runs[0])
 
 
-def _rewrite_meta(entry: Path, **changes: Any) -> None:
-    with np.load(entry, allow_pickle=False) as npz:
-        arrays = {k: npz[k] for k in npz.files}
-    meta = json.loads(bytes(arrays["meta"]).decode())
-    meta.update(changes)
-    arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
+def _rewrite(entry: Path, **changes: Any) -> None:
+    """Rewrite an entry with a consistent header (and checksum) but other contents."""
+    meta, floats, ints = read_entry(entry)
+    meta.update(changes.pop("meta", {}))
+    arrays = {"floats": floats, "ints": ints, **changes}
+    write_entry(entry, meta, **arrays)
+
+
+def _not_json(entry: Path) -> None:
+    meta, floats, ints = read_entry(entry)
+    write_entry(entry, json.dumps(meta).encode()[:-1], floats, ints)  # no closing brace
+
+
+def _other_magic(entry: Path) -> None:
+    size = entry.stat().st_size
+    meta, floats, ints = read_entry(entry)
+    write_entry(entry, meta, floats, ints, magic=b"ACRUN\x00\x02\x00")
+    assert entry.stat().st_size == size  # the right size: only the magic says no
+
+
+def _pickled(entry: Path) -> None:
     with entry.open("wb") as fh:
-        np.savez(fh, **arrays)
+        np.savez(fh, meta=np.array([{"format": cache.FORMAT}], dtype=object))
 
 
-def _drop_member(entry: Path, name: str) -> None:
-    with np.load(entry, allow_pickle=False) as npz:
-        arrays = {k: npz[k] for k in npz.files if k != name}
-    with entry.open("wb") as fh:
-        np.savez(fh, **arrays)
-
-
-def _short_floats(entry: Path) -> None:
-    with np.load(entry, allow_pickle=False) as npz:
-        arrays = {k: npz[k] for k in npz.files}
-    arrays["floats"] = arrays["floats"][:-1]
-    with entry.open("wb") as fh:
-        np.savez(fh, **arrays)
-
-
-def _pickled_meta(entry: Path) -> None:
-    with entry.open("wb") as fh:
-        np.savez(fh, meta=np.array([{"format": 1}], dtype=object))
+def _flip(entry: Path, at: int) -> None:
+    b = bytearray(entry.read_bytes())
+    b[at] ^= 0xFF
+    entry.write_bytes(bytes(b))
 
 
 CORRUPTIONS: dict[str, Callable[[Path], object]] = {
     "truncated": lambda e: e.write_bytes(e.read_bytes()[: e.stat().st_size // 2]),
     "empty": lambda e: e.write_bytes(b""),
     "garbage": lambda e: e.write_bytes(os.urandom(4096)),
-    "flipped byte": lambda e: e.write_bytes(
-        (lambda b: b[:2000] + bytes([b[2000] ^ 0xFF]) + b[2001:])(e.read_bytes())
-    ),
-    "other format": lambda e: _rewrite_meta(e, format=cache.FORMAT + 1),
-    "other version": lambda e: _rewrite_meta(e, accelcore="0.0.0-other"),
-    "other key": lambda e: _rewrite_meta(e, key="0" * 64),
-    "bad fingerprint type": lambda e: _rewrite_meta(e, fingerprint="x"),
-    "bad hash": lambda e: _rewrite_meta(e, sha256="not a hash"),
-    "negative count": lambda e: _rewrite_meta(e, n_rows=-1),
-    "wrong block count": lambda e: _rewrite_meta(e, n_blocks=3),
-    "missing member": lambda e: _drop_member(e, "ints"),
-    "short member": _short_floats,
-    "pickled": _pickled_meta,
+    "flipped byte in the data": lambda e: _flip(e, 2000),
+    "flipped byte in the metadata": lambda e: _flip(e, HEADER.size + 40),
+    "flipped byte in the header": lambda e: _flip(e, 20),
+    "last byte cut": lambda e: e.write_bytes(e.read_bytes()[:-1]),
+    "a byte more": lambda e: e.write_bytes(e.read_bytes() + b" "),
+    "a zero word more": lambda e: e.write_bytes(e.read_bytes() + bytes(8)),  # same checksum
+    "other magic, right size": _other_magic,
+    "wrong checksum": lambda e: _rewrite(e, checksum_delta=1),
+    "old npz format": lambda e: _old_format_entry(e, e),
+    "metadata not json": _not_json,
+    "metadata not a dict": lambda e: write_entry(e, b"[2]", *read_entry(e)[1:]),
+    "other format": lambda e: _rewrite(e, meta={"format": cache.FORMAT + 1}),
+    "format 1": lambda e: _rewrite(e, meta={"format": 1}),
+    "other version": lambda e: _rewrite(e, meta={"accelcore": "0.0.0-other"}),
+    "other key": lambda e: _rewrite(e, meta={"key": "0" * 64}),
+    "bad fingerprint type": lambda e: _rewrite(e, meta={"fingerprint": "x"}),
+    "bad hash": lambda e: _rewrite(e, meta={"sha256": "not a hash"}),
+    "negative count": lambda e: _rewrite(e, meta={"n_rows": -1}),
+    "wrong block count": lambda e: _rewrite(e, meta={"n_blocks": 3}),
+    "no ints": lambda e: _rewrite(e, ints=np.zeros(0, np.int64)),
+    "short floats": lambda e: _rewrite(e, floats=read_entry(e)[1][:-1]),
+    "pickled": _pickled,
 }
 
 
@@ -266,6 +336,9 @@ def test_a_bad_entry_is_a_miss_and_is_replaced(
     load_session(folder, cache=tmp_path)
     for entry in entries(tmp_path)[:2]:
         CORRUPTIONS[how](entry)
+    csvs = [f for f in files_of(folder) if f.suffix == ".csv"]
+    lookups = cache.RunCache(tmp_path).lookup_all(csvs, _params_of(folder))
+    assert sum(hit is not None for hit, _ in lookups) == 4  # the good ones share one buffer
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         again = load_session(folder, cache=tmp_path)
@@ -419,7 +492,7 @@ def test_a_full_disk_warns_once_and_leaves_no_temporary_file(
     def full(*args: Any, **kwargs: Any) -> None:
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(np, "savez", full)
+    monkeypatch.setattr(cache, "_write_entry", full)
     with pytest.warns(CacheWarning, match="No space left") as caught:
         session = load_session(aged["unwritable"], cache=tmp_path)
     assert len(caught) == 1
@@ -472,13 +545,61 @@ def test_a_hit_counts_as_a_use_for_pruning(aged: dict[str, Path], tmp_path: Path
 
 
 def test_pruning_removes_stale_temporary_files_only(tmp_path: Path) -> None:
-    old, new = tmp_path / ".tmp-old.npz", tmp_path / ".tmp-new.npz"
+    old, new = tmp_path / ".tmp-old.acrun", tmp_path / ".tmp-new.acrun"
+    old_npz, new_npz = tmp_path / ".tmp-old.npz", tmp_path / ".tmp-new.npz"  # earlier format's
     other = tmp_path / "notes.txt"
-    for p in (old, new, other):
+    for p in (old, new, old_npz, new_npz, other):
         p.write_bytes(b"x" * 10)
-    _set_mtime([old], 7200)
+    _set_mtime([old, old_npz], 7200)
     assert cache.prune(tmp_path, max_bytes=1e9) == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".tmp-new.npz", "notes.txt"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        ".tmp-new.acrun",
+        ".tmp-new.npz",
+        "notes.txt",
+    ]
+
+
+def _old_format_entry(path: Path, entry: Path) -> None:
+    """Write at ``path`` the FORMAT 1 (numpy.savez) entry holding what ``entry`` holds."""
+    meta, floats, ints = read_entry(entry)
+    meta["format"] = 1
+    raw = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
+    with path.open("wb") as fh:
+        np.savez(fh, meta=raw, floats=floats, ints=ints)
+
+
+def test_old_format_entries_are_ignored_and_removed(
+    aged: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    folder = aged["shared"]
+    cold = load_session(folder, cache=False)
+    load_session(folder, cache=tmp_path)
+    stems = [e.stem for e in entries(tmp_path)]
+    for stem in stems:  # under the very keys of today's entries, which are then removed
+        _old_format_entry(tmp_path / f"{stem}.npz", tmp_path / f"{stem}{cache.SUFFIX}")
+        (tmp_path / f"{stem}{cache.SUFFIX}").unlink()
+    (tmp_path / "notes.npz").write_bytes(b"not an entry name")
+    reads: list[str] = []
+
+    def counting(path: str, **kwargs: Any) -> Any:
+        reads.append(path)
+        return real_read_run(path, **kwargs)
+
+    monkeypatch.setattr(session_module, "read_run", counting)
+    assert_identical(load_session(folder, cache=tmp_path), cold)
+    assert len(reads) == 6  # no old entry was read ...
+    assert [e.stem for e in entries(tmp_path)] == stems
+    assert sorted(p.name for p in tmp_path.glob("*.npz")) == ["notes.npz"]  # ... and all went
+    # prune removes them even when the folder is within its bound, and counts them.
+    for stem in stems[:2]:
+        _old_format_entry(tmp_path / f"{stem}.npz", tmp_path / f"{stem}{cache.SUFFIX}")
+    assert cache.prune(tmp_path, max_bytes=1e12) == 2
+    assert len(entries(tmp_path)) == 6 and len(list(tmp_path.glob("*.npz"))) == 1
+    # clear removes and counts them too.
+    for stem in stems[:3]:
+        _old_format_entry(tmp_path / f"{stem}.npz", tmp_path / f"{stem}{cache.SUFFIX}")
+    assert cache.clear(tmp_path) == 6 + 3
+    assert [p.name for p in tmp_path.iterdir()] == ["notes.npz"]
 
 
 def test_clear(aged: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -575,6 +696,43 @@ def test_bulk_passes_the_cache_setting(aged: dict[str, Path], tmp_path: Path) ->
     assert entries(tmp_path / "cache") == []
     bulk(archive, tmp_path / "on", jobs=1, diagnose=False, progress=False, cache=tmp_path / "cache")
     assert len(entries(tmp_path / "cache")) == 6
+
+
+def test_warm_arrays_are_writeable_exactly_when_cold_ones_are(
+    aged: dict[str, Path], tmp_path: Path, no_reading: Callable[[], None]
+) -> None:
+    """Views of the entry's buffer: writeable as a cold read's, and writing stays in memory."""
+    folder = aged["shared"]
+    cold = load_session(folder, cache=False)
+    load_session(folder, cache=tmp_path)
+    no_reading()
+    warm = load_session(folder, cache=tmp_path)
+
+    def arrays(run: Any) -> dict[str, np.ndarray]:
+        st = run.stats
+        found = {
+            "time_s": run.time_s,
+            "temperature_c": run.temperature_c,
+            "output": run.output,
+            "count": run.count,
+            "channel_min": st.channel_min,
+            "channel_max": st.channel_max,
+            "n_at_min": st.n_at_min,
+            "n_at_max": st.n_at_max,
+        }
+        return found | {f"extras[{k}]": v for k, v in run.extras.items()}
+
+    for c, w in zip(cold.runs, warm.runs, strict=True):
+        a, b = arrays(c), arrays(w)
+        assert list(a) == list(b)
+        for name in a:
+            assert b[name].flags.writeable == a[name].flags.writeable, name
+            assert b[name].flags.aligned, name
+    assert warm.runs[0].time_s.flags.writeable  # the cold path's are
+    # Writing into a warm run changes neither the entry nor the next load.
+    warm.runs[0].time_s[0] += 1.0
+    warm.runs[0].output[:] = 0.0
+    assert_identical(load_session(folder, cache=tmp_path), cold)
 
 
 def test_session_from_a_hit_is_a_plain_session(aged: dict[str, Path], tmp_path: Path) -> None:

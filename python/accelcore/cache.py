@@ -25,9 +25,39 @@ Never in the way
     An unreadable, truncated, corrupt or other-version entry is a miss (and
     is replaced); a cache folder that cannot be written gives at most one
     :class:`CacheWarning` per load and the result is the same as without
-    the cache. Entries are ``numpy.savez`` files (metadata as JSON inside,
-    read with ``allow_pickle=False``), written to a temporary name in the
-    same folder and renamed.
+    the cache. Entries are written to a temporary name in the same folder
+    and renamed.
+
+Entry layout (``<key>.acrun``, :data:`FORMAT` 2)
+    Everything little-endian::
+
+        offset        size        content
+        0             8           magic: "ACRUN", then the bytes 00 01 00 (hex)
+        8             8           meta_len, uint64 (a multiple of 8)
+        16            8           n_floats, uint64
+        24            8           n_ints, uint64
+        32            8           checksum, uint64: the sum, modulo 2**64, of
+                                  all that follows, read as '<u8' words
+        40            meta_len    metadata: UTF-8 JSON, padded with spaces
+        40+meta_len   8*n_floats  float64 ('<f8'): time_s, temperature_c,
+                                  channels (row-major, n_blocks x n_channels),
+                                  channel_min, channel_max, then
+                                  max_interval_s, first_time_s, last_time_s
+        ...           8*n_ints    int64 ('<i8'): count, block_index (if any),
+                                  n_at_min, n_at_max (uint64 bits as int64)
+
+    The file is read with one ``readinto`` and the record's arrays are views
+    of that buffer (:func:`numpy.frombuffer`, no copy; writeable, as a cold
+    read's are; the entries of one load share one buffer). An entry is used
+    only if the magic matches, the file's size is exactly what the header
+    declares (a truncated entry is a miss), the checksum matches, the
+    metadata is valid and of this :data:`FORMAT`, and the two vectors have
+    the lengths the metadata implies. The checksum (a plain word sum, much
+    cheaper than a CRC) catches any change confined to one 8-byte word, such
+    as a flipped bit or byte, and zeroed or overwritten blocks; it is no
+    defence against deliberate edits. Entries of the earlier ``numpy.savez``
+    format (``<key>.npz``, :data:`FORMAT` 1) are never read; :func:`prune`
+    and :func:`clear` remove them.
 
 Bounded
     After writing, the least recently used entries (by the entry file's
@@ -48,13 +78,15 @@ import hashlib
 import json
 import math
 import os
+import struct
 import tempfile
 import time
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from io import FileIO
 from pathlib import Path
-from typing import Any, Final, TypeAlias
+from typing import Any, BinaryIO, Final, TypeAlias
 
 import numpy as np
 from numpy.typing import NDArray
@@ -66,6 +98,7 @@ from accelcore.errors import AccelcoreWarning
 __all__ = [
     "FORMAT",
     "RACY_WINDOW_NS",
+    "SUFFIX",
     "Blocks",
     "CacheSetting",
     "CacheWarning",
@@ -80,7 +113,9 @@ __all__ = [
 ]
 
 #: Version of the entry layout; part of every key, and checked on reading.
-FORMAT: Final = 1
+FORMAT: Final = 2
+#: File name suffix of an entry (``<key>.acrun``).
+SUFFIX: Final = ".acrun"
 #: A file changed (mtime or ctime) less than this before it is read is not cached, ns.
 RACY_WINDOW_NS: Final = 2_000_000_000
 #: Default size bound of the cache folder, MB (``$ACCELCORE_CACHE_MAX_MB``).
@@ -91,7 +126,12 @@ CacheSetting: TypeAlias = bool | str | os.PathLike[str]
 #: ``(st_size, st_mtime_ns, st_ctime_ns, st_ino, st_dev)``.
 Fingerprint: TypeAlias = tuple[int, int, int, int, int]
 
-_SUFFIX: Final = ".npz"
+#: Suffixes of the entries of earlier formats: never read, removed by prune and clear.
+_OLD_SUFFIXES: Final = (".npz",)
+#: First 8 bytes of an entry.
+_MAGIC: Final = b"ACRUN\x00\x01\x00"
+#: magic, meta_len, n_floats, n_ints, checksum.
+_HEADER: Final = struct.Struct("<8sQQQQ")
 _TMP_PREFIX: Final = ".tmp-"
 _STALE_TMP_NS: Final = 3600 * 1_000_000_000  # temporary files of a killed writer
 _COUNTS: Final = ("n_rows", "n_skipped_nonfinite", "n_truncated_rows", "n_gaps")
@@ -310,17 +350,52 @@ class Probe:
     fingerprint: Fingerprint
 
 
-def _member(npz: Any, name: str, dtype: type[np.generic], size: int | None = None) -> NDArray[Any]:
-    a = npz[name]
-    if not isinstance(a, np.ndarray) or a.dtype != np.dtype(dtype) or a.ndim != 1:
-        raise _BadEntry(f"member {name!r}")
-    if size is not None and a.shape[0] != size:
-        raise _BadEntry(f"member {name!r} has {a.shape[0]} values, expected {size}")
-    return a
+def _read_files(paths: Sequence[Path]) -> list[NDArray[np.uint8] | Exception | None]:
+    """Read each file whole into its own slice of one new, writeable buffer.
+
+    One allocation for all entries of a load (not one per entry): fewer page
+    faults, and the allocator recycles it from one load to the next. Each file
+    is read with one ``readinto``. Returns, for each path, its bytes; None
+    when there is no such file; or the exception that reading it raised.
+    """
+    out: list[NDArray[np.uint8] | Exception | None] = [None] * len(paths)
+    with contextlib.ExitStack() as stack:
+        opened: list[tuple[int, FileIO, int]] = []
+        for j, path in enumerate(paths):
+            try:
+                fh = stack.enter_context(open(path, "rb", buffering=0))
+                opened.append((j, fh, os.fstat(fh.fileno()).st_size))
+            except FileNotFoundError:
+                pass
+            except Exception as exc:
+                out[j] = exc
+        starts = [0]
+        for _, _, size in opened:
+            starts.append(starts[-1] + -(-size // 64) * 64)  # each entry 64-byte aligned
+        buf = np.empty(starts[-1], dtype=np.uint8)  # not zeroed, unlike bytearray(size)
+        view = buf.data
+        for (j, fh, size), start in zip(opened, starts, strict=False):
+            got = 0
+            try:
+                while got < size:  # one read(2) in practice; a loop in case it is cut short
+                    n = fh.readinto(view[start + got : start + size])
+                    if not n:
+                        raise _BadEntry("shorter than its size")
+                    got += n
+            except Exception as exc:
+                out[j] = exc
+            else:
+                out[j] = buf[start : start + size]
+    return out
+
+
+def _vector(buf: NDArray[np.uint8], dtype: str, count: int, offset: int) -> NDArray[Any]:
+    a = np.frombuffer(buf, dtype=dtype, count=count, offset=offset)
+    return a if a.dtype.isnative else a.astype(a.dtype.newbyteorder("="))
 
 
 def _pack(record: RunRecord) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """Every array of a record in one float64 and one int64 vector (few zip members: fast)."""
+    """Every array of a record in one float64 and one int64 vector (the entry's layout)."""
     b = record.blocks
     floats = np.concatenate(
         [
@@ -340,39 +415,78 @@ def _pack(record: RunRecord) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     return floats, ints
 
 
-def _read_entry(path: Path, probe: Probe) -> tuple[RunRecord, str, Fingerprint]:
-    """Load and check one entry; :class:`_BadEntry` or any error means a miss.
+def _checksum(*parts: NDArray[Any]) -> int:
+    """Sum, mod 2**64, of the little-endian uint64 words of ``parts`` (whole words each)."""
+    total = 0
+    for part in parts:
+        words = np.frombuffer(part.data, dtype="<u8")
+        total += int(np.add.reduce(words, dtype=np.uint64))
+    return total % (1 << 64)
 
-    The arrays of the record are contiguous views of the entry's two vectors.
+
+def _write_entry(
+    fh: BinaryIO, meta: Mapping[str, Any], floats: NDArray[np.float64], ints: NDArray[np.int64]
+) -> None:
+    """Write an entry in the layout of the module docstring."""
+    text = json.dumps(meta).encode()
+    text += b" " * (-len(text) % 8)
+    body = [
+        np.frombuffer(text, dtype=np.uint8),
+        np.ascontiguousarray(floats, dtype="<f8"),
+        np.ascontiguousarray(ints, dtype="<i8"),
+    ]
+    n_floats, n_ints = floats.shape[0], ints.shape[0]
+    fh.write(_HEADER.pack(_MAGIC, len(text), n_floats, n_ints, _checksum(*body)))
+    for part in body:
+        fh.write(part.data)
+
+
+def _parse_entry(buf: NDArray[np.uint8], probe: Probe) -> tuple[RunRecord, str, Fingerprint]:
+    """Check one entry's bytes; :class:`_BadEntry` or any error means a miss.
+
+    The arrays of the record are contiguous, writeable views of the entry's
+    two vectors, which are views of ``buf`` (no copy).
     """
-    # Open the file here: np.load leaks its own handle when the zip is unreadable.
-    with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as npz:
-        meta = json.loads(bytes(_member(npz, "meta", np.uint8)).decode())
-        if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-            raise _BadEntry("format")
-        if meta.get("key") != probe.key or meta.get("accelcore") != __version__:
-            raise _BadEntry("key")
-        fingerprint, sha256, names = meta["fingerprint"], meta["sha256"], meta["channel_names"]
-        n, has_index = meta["n_blocks"], meta["block_index"]
-        counts = [meta[k] for k in _COUNTS]
-        if not (
-            isinstance(fingerprint, list)
-            and len(fingerprint) == 5
-            and all(type(v) is int for v in fingerprint)
-            and isinstance(sha256, str)
-            and len(sha256) == 64
-            and all(c in "0123456789abcdef" for c in sha256)
-            and isinstance(names, list)
-            and all(isinstance(c, str) for c in names)
-            and all(type(v) is int and v >= 0 for v in [n, *counts])
-            and type(has_index) is bool
-        ):
-            raise _BadEntry("metadata")
-        k = len(names)
-        floats = _member(npz, "floats", np.float64, n * (2 + k) + 2 * k + 3)
-        ints = _member(npz, "ints", np.int64, n * (1 + has_index) + 2 * k)
-    f = np.cumsum([0, n, n, n * k, k, k])
-    i = np.cumsum([0, n, n * has_index, k])
+    if buf.shape[0] < _HEADER.size:
+        raise _BadEntry("shorter than a header")
+    magic, meta_len, n_floats, n_ints, checksum = _HEADER.unpack_from(buf.data)
+    if magic != _MAGIC:
+        raise _BadEntry("magic")
+    if meta_len % 8 or buf.shape[0] != _HEADER.size + meta_len + 8 * (n_floats + n_ints):
+        raise _BadEntry("size")  # truncated, or a header that does not describe the file
+    if _checksum(buf[_HEADER.size :]) != checksum:
+        raise _BadEntry("checksum")
+    data_start = _HEADER.size + meta_len
+    meta = json.loads(buf[_HEADER.size : data_start].tobytes().decode())
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise _BadEntry("format")
+    if meta.get("key") != probe.key or meta.get("accelcore") != __version__:
+        raise _BadEntry("key")
+    fingerprint, sha256, names = meta["fingerprint"], meta["sha256"], meta["channel_names"]
+    n, has_index = meta["n_blocks"], meta["block_index"]
+    counts = [meta[k] for k in _COUNTS]
+    if not (
+        isinstance(fingerprint, list)
+        and len(fingerprint) == 5
+        and all(type(v) is int for v in fingerprint)
+        and isinstance(sha256, str)
+        and len(sha256) == 64
+        and all(c in "0123456789abcdef" for c in sha256)
+        and isinstance(names, list)
+        and all(isinstance(c, str) for c in names)
+        and all(type(v) is int and v >= 0 for v in [n, *counts])
+        and type(has_index) is bool
+    ):
+        raise _BadEntry("metadata")
+    k = len(names)
+    if n_floats != n * (2 + k) + 2 * k + 3:
+        raise _BadEntry(f"{n_floats} floats, expected {n * (2 + k) + 2 * k + 3}")
+    if n_ints != n * (1 + has_index) + 2 * k:
+        raise _BadEntry(f"{n_ints} ints, expected {n * (1 + has_index) + 2 * k}")
+    floats = _vector(buf, "<f8", n_floats, data_start)
+    ints = _vector(buf, "<i8", n_ints, data_start + 8 * n_floats)
+    f = [0, n, 2 * n, (2 + k) * n, (2 + k) * n + k, (2 + k) * n + 2 * k]  # vector offsets
+    i = [0, n, (1 + has_index) * n, (1 + has_index) * n + k]
     max_interval, first, last = (float(v) for v in floats[f[5] :])
     record = RunRecord(
         channel_names=tuple(names),
@@ -409,10 +523,10 @@ class RunCache:
 
     Notes
     -----
-    :meth:`lookup` each run file before reading it, :meth:`store` what was
-    read, then :meth:`finish` (bounds the folder's size). No method raises
-    because of the cache: every problem is a miss, and a folder that cannot
-    be written gives one :class:`CacheWarning`.
+    :meth:`lookup` each run file (or :meth:`lookup_all` of them) before
+    reading it, :meth:`store` what was read, then :meth:`finish` (bounds the
+    folder's size). No method raises because of the cache: every problem is
+    a miss, and a folder that cannot be written gives one :class:`CacheWarning`.
     """
 
     def __init__(self, directory: Path) -> None:
@@ -455,28 +569,65 @@ class RunCache:
         probe : Probe or None
             Pass it to :meth:`store` after a miss (None: do not store).
         """
+        return self.lookup_all([file], params)[0]
+
+    def lookup_all(
+        self, files: Sequence[Path], params: Mapping[str, Any]
+    ) -> list[tuple[tuple[RunRecord, str] | None, Probe | None]]:
+        """Look run files up, just before they would be read: :meth:`lookup` of each.
+
+        The entries found are read into one buffer, of which the arrays of
+        every hit are views: they stay in memory as long as any of them does.
+
+        Parameters
+        ----------
+        files : sequence of pathlib.Path
+            The run files.
+        params : mapping
+            The reader parameters (see :func:`entry_key`), the same for all.
+
+        Returns
+        -------
+        list of (hit, probe)
+            What :meth:`lookup` returns, for each file.
+        """
+        probes: list[Probe | None] = []
+        for file in files:
+            try:
+                resolved = str(file.resolve())
+                key = entry_key(resolved, params)
+                seen_at = time.time_ns()
+                fingerprint = _fingerprint(os.stat(file))
+                probes.append(Probe(file, key, resolved, dict(params), seen_at, fingerprint))
+            except (OSError, RuntimeError, ValueError, TypeError):
+                probes.append(None)  # the reader will report an unreadable file
+        results: list[tuple[tuple[RunRecord, str] | None, Probe | None]] = [
+            (None, probe) for probe in probes
+        ]
+        looked_up = [(j, probe) for j, probe in enumerate(probes) if probe is not None]
+        entries = [self.directory / f"{probe.key}{SUFFIX}" for _, probe in looked_up]
         try:
-            resolved = str(file.resolve())
-            key = entry_key(resolved, params)
-            seen_at = time.time_ns()
-            probe = Probe(file, key, resolved, dict(params), seen_at, _fingerprint(os.stat(file)))
-        except (OSError, RuntimeError, ValueError, TypeError):
-            return None, None  # the reader will report an unreadable file
-        entry = self.directory / f"{key}{_SUFFIX}"
-        try:
-            record, sha256, fingerprint = _read_entry(entry, probe)
-        except FileNotFoundError:
-            return None, probe
-        except Exception:  # a bad entry of any kind is a miss, never an error; replace it
+            contents = _read_files(entries)
+        except Exception:  # e.g. no memory for an absurd entry size: all misses, no error
+            return results
+        for (j, probe), entry, content in zip(looked_up, entries, contents, strict=True):
+            if content is None:
+                continue  # no entry
+            try:
+                if isinstance(content, Exception):
+                    raise content
+                record, sha256, fingerprint = _parse_entry(content, probe)
+            except Exception:  # a bad entry of any kind is a miss, never an error; replace it
+                with contextlib.suppress(OSError):
+                    entry.unlink()
+                continue
+            if fingerprint != probe.fingerprint:
+                continue
             with contextlib.suppress(OSError):
-                entry.unlink()
-            return None, probe
-        if fingerprint != probe.fingerprint:
-            return None, probe
-        with contextlib.suppress(OSError):
-            os.utime(entry)  # least recently used goes first when pruning
-        self.n_hits += 1
-        return (record, sha256), probe
+                os.utime(entry)  # least recently used goes first when pruning
+            self.n_hits += 1
+            results[j] = ((record, sha256), probe)
+        return results
 
     def store(self, probe: Probe | None, record: RunRecord, sha256: str) -> bool:
         """Write the entry of a run file just read, if it is safe to.
@@ -539,18 +690,13 @@ class RunCache:
             **{name: int(getattr(record, name)) for name in _COUNTS},
         }
         floats, ints = _pack(record)
-        arrays: dict[str, Any] = {  # Any: numpy types savez(**kwds) as allow_pickle too
-            "meta": np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8),
-            "floats": floats,
-            "ints": ints,
-        }
         tmp: str | None = None
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=_TMP_PREFIX, suffix=_SUFFIX, dir=self.directory)
+            fd, tmp = tempfile.mkstemp(prefix=_TMP_PREFIX, suffix=SUFFIX, dir=self.directory)
             with os.fdopen(fd, "wb") as fh:
-                np.savez(fh, **arrays)
-            os.replace(tmp, self.directory / f"{probe.key}{_SUFFIX}")
+                _write_entry(fh, meta, floats, ints)
+            os.replace(tmp, self.directory / f"{probe.key}{SUFFIX}")
             tmp = None
         except Exception as exc:  # disk full, read-only folder, ...: results stay correct
             if tmp is not None:
@@ -576,20 +722,30 @@ class RunCache:
             prune(self.directory)
 
 
-def _entries(directory: Path) -> list[tuple[int, int, Path, bool]]:
-    """(mtime_ns, size, path, is_temporary) of every cache file in ``directory``."""
+def _entries(directory: Path) -> list[tuple[int, int, Path, str]]:
+    """(mtime_ns, size, path, kind) of every cache file in ``directory``.
+
+    ``kind`` is ``"entry"``, ``"temporary"`` (being written, or left by a killed
+    writer) or ``"old"`` (an entry of an earlier format, never read again).
+    """
     found = []
     with os.scandir(directory) as it:
         for e in it:
             name = e.name
-            is_tmp = name.startswith(_TMP_PREFIX)
-            if not name.endswith(_SUFFIX) or not (is_tmp or len(name) == 64 + len(_SUFFIX)):
+            suffix = next((s for s in (SUFFIX, *_OLD_SUFFIXES) if name.endswith(s)), None)
+            if suffix is None:
+                continue
+            if name.startswith(_TMP_PREFIX):
+                kind = "temporary"
+            elif len(name) == 64 + len(suffix):
+                kind = "entry" if suffix == SUFFIX else "old"
+            else:
                 continue
             try:
                 st = e.stat(follow_symlinks=False)
             except OSError:
                 continue
-            found.append((st.st_mtime_ns, st.st_size, Path(e.path), is_tmp))
+            found.append((st.st_mtime_ns, st.st_size, Path(e.path), kind))
     return found
 
 
@@ -606,8 +762,9 @@ def prune(directory: Path, max_bytes: float | None = None) -> int:
     Returns
     -------
     int
-        Entries removed (temporary files of killed writers, more than an hour
-        old, are removed too and not counted).
+        Entries removed, counting the entries of earlier formats (``.npz``),
+        which are always removed (temporary files of killed writers, more
+        than an hour old, are removed too and not counted).
     """
     bound = _max_bytes() if max_bytes is None else max_bytes
     try:
@@ -615,16 +772,19 @@ def prune(directory: Path, max_bytes: float | None = None) -> int:
     except OSError:
         return 0
     now = time.time_ns()
-    total, kept = 0, []
-    for mtime, size, path, is_tmp in found:
-        if is_tmp and now - mtime > _STALE_TMP_NS:
-            with contextlib.suppress(OSError):
+    total, kept, removed = 0, [], 0
+    for mtime, size, path, kind in found:
+        if kind == "old" or (kind == "temporary" and now - mtime > _STALE_TMP_NS):
+            try:
                 path.unlink()
+            except OSError:
+                pass
+            else:
+                removed += kind == "old"
             continue
         total += size
-        if not is_tmp:
+        if kind == "entry":
             kept.append((mtime, size, path))
-    removed = 0
     for _, size, path in sorted(kept, key=lambda e: e[0]):  # oldest use first
         if total <= bound:
             break
@@ -650,7 +810,8 @@ def clear(cache_dir: str | os.PathLike[str] | None = None) -> int:
     Returns
     -------
     int
-        Entries removed (0 when the folder does not exist).
+        Entries removed, entries of earlier formats included (0 when the folder
+        does not exist).
     """
     directory = default_dir() if cache_dir is None else Path(cache_dir)
     if directory is None:
@@ -660,10 +821,10 @@ def clear(cache_dir: str | os.PathLike[str] | None = None) -> int:
     except OSError:
         return 0
     removed = 0
-    for _, _, path, is_tmp in found:
+    for _, _, path, kind in found:
         try:
             path.unlink()
         except OSError:
             continue
-        removed += not is_tmp
+        removed += kind != "temporary"
     return removed

@@ -559,8 +559,8 @@ def load_session(
     found: list[tuple[RunRecord, str] | None] = [None] * len(run_files)
     probes: list[Probe | None] = [None] * len(run_files)
     if store is not None:
-        for i, file in enumerate(run_files):
-            found[i], probes[i] = store.lookup(file, params)
+        for i, (hit, probe) in enumerate(store.lookup_all(run_files, params)):
+            found[i], probes[i] = hit, probe
     missing = [i for i, hit in enumerate(found) if hit is None]
     to_hash = [toml_file] + [run_files[i] for i in missing]
     if missing:
