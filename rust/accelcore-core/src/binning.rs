@@ -233,7 +233,14 @@ impl TemperatureBinner {
             }
         } else if let Some(flat) = channels.as_slice() {
             if nc <= RUN_CHANNELS {
-                self.push_runs(time_s, temperature_c, flat);
+                let (t, temp) = (time_s, temperature_c);
+                match nc {
+                    1 => self.push_runs::<1>(t, temp, flat),
+                    2 => self.push_runs::<2>(t, temp, flat),
+                    3 => self.push_runs::<3>(t, temp, flat),
+                    4 => self.push_runs::<4>(t, temp, flat),
+                    _ => self.push_runs::<0>(t, temp, flat),
+                }
             } else {
                 for ((&t, &temp), row) in
                     time_s.iter().zip(temperature_c).zip(flat.chunks_exact(nc))
@@ -273,8 +280,10 @@ impl TemperatureBinner {
     /// rows mostly share a bin: a run of them is accumulated in local variables
     /// (registers) rather than through memory, with the same operations in the
     /// same order as `add`, so the result is bit-identical.
-    fn push_runs(&mut self, time_s: &[f64], temperature_c: &[f64], flat: &[f64]) {
-        let nc = self.config.n_channels;
+    ///
+    /// `N` is the channel count fixed at compile time (0: from the configuration).
+    fn push_runs<const N: usize>(&mut self, time_s: &[f64], temperature_c: &[f64], flat: &[f64]) {
+        let nc = if N == 0 { self.config.n_channels } else { N };
         let stride = stride(nc);
         let n = time_s.len();
         let row_at = |i: usize| &flat[i * nc..(i + 1) * nc];

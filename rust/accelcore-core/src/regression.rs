@@ -317,11 +317,26 @@ impl LeastSquares {
             if !(all_finite(xs) && all_finite(ys) && weights_ok) {
                 self.first_invalid(design, responses, weights)?;
             }
-            if self.n_responses > 0 {
-                self.accumulate(
-                    xs.chunks_exact(p),
-                    ys.chunks_exact(self.n_responses),
-                    weights,
+            let m = self.n_responses;
+            if m > 0 {
+                let (rows, resp) = (xs.chunks_exact(p), ys.chunks_exact(m));
+                macro_rules! sized {
+                    ($(($pp:literal, $mm:literal)),*) => {
+                        match (p, m) {
+                            $(($pp, $mm) => self.accumulate::<_, _, $pp, $mm>(rows, resp, weights),)*
+                            _ => self.accumulate::<_, _, 0, 0>(rows, resp, weights),
+                        }
+                    };
+                }
+                sized!(
+                    (1, 1),
+                    (2, 1),
+                    (2, 2),
+                    (2, 3),
+                    (3, 1),
+                    (3, 3),
+                    (4, 1),
+                    (4, 3)
                 );
                 return Ok(());
             }
@@ -333,14 +348,22 @@ impl LeastSquares {
         }
         let rows = responses.rows();
         match design.as_slice() {
-            Some(flat) => self.accumulate(flat.chunks_exact(p), rows.into_iter(), weights),
-            None => self.accumulate(design.rows().into_iter(), rows.into_iter(), weights),
+            Some(flat) => {
+                self.accumulate::<_, _, 0, 0>(flat.chunks_exact(p), rows.into_iter(), weights);
+            }
+            None => {
+                self.accumulate::<_, _, 0, 0>(design.rows().into_iter(), rows.into_iter(), weights);
+            }
         }
         Ok(())
     }
 
     /// Rotate validated rows into the state, `BLOCK_ROWS` at a time.
-    fn accumulate<'a, 'b, R, Y>(
+    ///
+    /// `P` and `M` fix the numbers of columns and responses at compile time
+    /// (0: take them from `self`), which unrolls the per-row loops for the
+    /// usual small fits; the operations are the same.
+    fn accumulate<'a, 'b, R, Y, const P: usize, const M: usize>(
         &mut self,
         rows: impl Iterator<Item = R>,
         responses: impl ExactSizeIterator<Item = Y>,
@@ -350,8 +373,13 @@ impl LeastSquares {
         Y: IntoIterator<Item = &'b f64>,
     {
         let n_pushed = responses.len() as u64;
-        let p = self.n_columns;
-        let width = p + self.n_responses;
+        let p = if P == 0 { self.n_columns } else { P };
+        let m = if M == 0 { self.n_responses } else { M };
+        let width = p + m;
+        // Column sums of squares in a local copy (registers), written back at the end.
+        let mut css = [0.0; MAX_COLUMNS];
+        let css = &mut css[..p];
+        css.copy_from_slice(&self.column_sum_squares[..p]);
         let Self {
             rz,
             rss,
@@ -376,10 +404,10 @@ impl LeastSquares {
             }
             let sw = last_sw;
             let dst = &mut block[filled * width..(filled + 1) * width];
-            for ((s, css), &x) in dst.iter_mut().zip(column_sum_squares.iter_mut()).zip(row) {
+            for ((s, c), &x) in dst[..p].iter_mut().zip(css.iter_mut()).zip(row) {
                 let v = sw * x;
                 *s = v;
-                *css += v * v;
+                *c += v * v;
             }
             for (d, &y) in dst[p..].iter_mut().zip(ys) {
                 *d = sw * y;
@@ -394,6 +422,7 @@ impl LeastSquares {
         if filled > 0 {
             rotate_block_in(rz, diag_sq, p, &mut block[..filled * width], 0, rss);
         }
+        column_sum_squares[..p].copy_from_slice(css);
         *n_rows += accepted;
         *rows_seen += n_pushed;
     }
@@ -673,8 +702,49 @@ fn rotate_block_in(
     start: usize,
     rss: &mut [f64],
 ) {
-    let width = p + rss.len();
-    for i in start..p {
+    // Narrow problems (a line or a low-order polynomial, a few responses) get
+    // a copy compiled for their size, loops unrolled; the same operations.
+    macro_rules! sized {
+        ($(($pp:literal, $w:literal)),*) => {
+            match (p, p + rss.len()) {
+                $(($pp, $w) => rotate_rows::<$pp, $w>(rz, diag_sq, p, block, start, rss),)*
+                _ => rotate_rows::<0, 0>(rz, diag_sq, p, block, start, rss),
+            }
+        };
+    }
+    sized!(
+        (1, 2),
+        (1, 3),
+        (1, 4),
+        (2, 3),
+        (2, 4),
+        (2, 5),
+        (2, 6),
+        (3, 4),
+        (3, 5),
+        (3, 6),
+        (4, 5),
+        (4, 6),
+        (4, 7)
+    );
+}
+
+/// [`rotate_block_in`] for `P` columns and rows of `W` values (0: any, from the arguments).
+#[inline]
+fn rotate_rows<const P: usize, const W: usize>(
+    rz: &mut [f64],
+    diag_sq: &mut [f64],
+    p: usize,
+    block: &mut [f64],
+    start: usize,
+    rss: &mut [f64],
+) {
+    let p = if P == 0 { p } else { P };
+    let width = if W == 0 { p + rss.len() } else { W };
+    for i in 0..p {
+        if i < start {
+            continue;
+        }
         let r_row = &mut rz[i * width + i..(i + 1) * width];
         let mut d = diag_sq[i];
         for row in block.chunks_exact_mut(width) {
@@ -770,4 +840,60 @@ fn condition_number(a: &mut [f64], p: usize) -> f64 {
         s_min = s_min.min(norm);
     }
     s_max / s_min
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every size-specialised copy of the rotation equals the generic one, bit for bit.
+    #[test]
+    fn sized_rotations_equal_generic() {
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            #[allow(clippy::cast_precision_loss)]
+            let u = (state >> 11) as f64 / (1u64 << 53) as f64;
+            u - 0.5
+        };
+        let sizes = [
+            (1, 2),
+            (1, 3),
+            (1, 4),
+            (2, 3),
+            (2, 4),
+            (2, 5),
+            (2, 6),
+            (3, 4),
+            (3, 5),
+            (3, 6),
+            (4, 5),
+            (4, 6),
+            (4, 7),
+        ];
+        for (p, width) in sizes {
+            for start in 0..p {
+                for rows in [1, 7, BLOCK_ROWS] {
+                    let mut rz: Vec<f64> = (0..p * width).map(|_| next()).collect();
+                    let mut diag_sq: Vec<f64> = (0..p).map(|i| rz[i * width + i].powi(2)).collect();
+                    let mut block: Vec<f64> = (0..rows * width).map(|_| next()).collect();
+                    if rows > 1 {
+                        block[width + start] = 0.0; // a row that skips a rotation
+                    }
+                    let mut rss = vec![0.5; width - p];
+                    let (mut rz2, mut d2, mut b2, mut rss2) =
+                        (rz.clone(), diag_sq.clone(), block.clone(), rss.clone());
+                    rotate_block_in(&mut rz, &mut diag_sq, p, &mut block, start, &mut rss);
+                    rotate_rows::<0, 0>(&mut rz2, &mut d2, p, &mut b2, start, &mut rss2);
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&rz), bits(&rz2), "p={p} width={width} start={start}");
+                    assert_eq!(bits(&diag_sq), bits(&d2));
+                    assert_eq!(bits(&block), bits(&b2));
+                    assert_eq!(bits(&rss), bits(&rss2));
+                }
+            }
+        }
+    }
 }
