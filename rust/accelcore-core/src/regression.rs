@@ -729,6 +729,9 @@ fn rotate_block_in(
     );
 }
 
+/// Widest row the sized copies of the rotation keep in local arrays.
+const LOCAL_WIDTH: usize = 8;
+
 /// [`rotate_block_in`] for `P` columns and rows of `W` values (0: any, from the arguments).
 #[inline]
 fn rotate_rows<const P: usize, const W: usize>(
@@ -745,7 +748,17 @@ fn rotate_rows<const P: usize, const W: usize>(
         if i < start {
             continue;
         }
-        let r_row = &mut rz[i * width + i..(i + 1) * width];
+        // Row i of R in a local copy (registers when the width is fixed),
+        // written back after the block.
+        let r_stored = &mut rz[i * width + i..(i + 1) * width];
+        let mut local = [0.0; LOCAL_WIDTH];
+        let r_row: &mut [f64] = if W > 0 && W <= LOCAL_WIDTH {
+            let l = &mut local[..r_stored.len()];
+            l.copy_from_slice(r_stored);
+            l
+        } else {
+            r_stored
+        };
         let mut d = diag_sq[i];
         for row in block.chunks_exact_mut(width) {
             let xi = row[i];
@@ -772,12 +785,30 @@ fn rotate_rows<const P: usize, const W: usize>(
                 *b = c * xb - s * ra;
             }
         }
+        if W > 0 && W <= LOCAL_WIDTH {
+            let n = width - i;
+            rz[i * width + i..(i + 1) * width].copy_from_slice(&local[..n]);
+        }
         diag_sq[i] = d;
     }
-    for row in block.chunks_exact(width) {
-        for (acc, &y) in rss.iter_mut().zip(&row[p..]) {
-            *acc += y * y;
+    // What is left of the responses adds to the residual sums of squares,
+    // kept in locals for fixed widths (same order of additions).
+    let add_squares = |acc: &mut [f64]| {
+        for row in block.chunks_exact(width) {
+            for (a, &y) in acc.iter_mut().zip(&row[p..]) {
+                *a += y * y;
+            }
         }
+    };
+    let m = width - p;
+    if W > 0 && m <= LOCAL_WIDTH {
+        let mut local = [0.0; LOCAL_WIDTH];
+        let acc = &mut local[..m];
+        acc.copy_from_slice(rss);
+        add_squares(acc);
+        rss.copy_from_slice(acc);
+    } else {
+        add_squares(rss);
     }
 }
 
