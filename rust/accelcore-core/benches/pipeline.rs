@@ -31,7 +31,18 @@ fn repeats() -> usize {
 
 fn data() -> (Vec<f64>, Vec<f64>, Array2<f64>) {
     let n = n_samples();
-    let t: Vec<f64> = (0..n).map(|i| i as f64 / 20.0).collect();
+    // ACCELCORE_BENCH_JITTER=1: times jittered by up to 10 ms, as in `benches/data.py`.
+    let jitter = std::env::var_os("ACCELCORE_BENCH_JITTER").is_some();
+    let t: Vec<f64> = (0..n)
+        .map(|i| {
+            let dither = if jitter {
+                ((i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 11) as f64 / (1u64 << 53) as f64
+            } else {
+                0.0
+            };
+            i as f64 / 20.0 + 0.01 * dither
+        })
+        .collect();
     let temp: Vec<f64> = (0..n).map(|i| -20.0 + 80.0 * i as f64 / n as f64).collect();
     let ch = Array2::from_shape_fn((n, 3), |(i, j)| ((i * 7 + j * 13) % 101) as f64 * 1e-3);
     (t, temp, ch)
