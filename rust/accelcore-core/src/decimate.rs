@@ -190,6 +190,28 @@ impl BlockSums {
         }
     }
 
+    /// Make block `k` the open one (`index`, `count`, sums of time and
+    /// temperature, channel `sums`, all held by the caller): unless it already
+    /// is, the open block (if it has samples) is appended here and `k` starts empty.
+    #[inline]
+    fn switch_to(
+        &mut self,
+        k: i64,
+        (index, count, sum_time, sum_temp): (&mut i64, &mut u64, &mut f64, &mut f64),
+        sums: &mut [f64],
+    ) {
+        if *count == 0 || k != *index {
+            if *count > 0 {
+                self.push(*index, *count, *sum_time, *sum_temp, sums);
+            }
+            *index = k;
+            *count = 0;
+            *sum_time = 0.0;
+            *sum_temp = 0.0;
+            sums.fill(0.0);
+        }
+    }
+
     /// Room for `n` more blocks of `nc` channels.
     fn reserve(&mut self, n: usize, nc: usize) {
         self.index.reserve(n);
@@ -963,16 +985,8 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
                 }
                 if !opened {
                     opened = true;
-                    if count == 0 || k != index {
-                        if count > 0 {
-                            closed.push(index, count, sum_time, sum_temp, sums);
-                        }
-                        index = k;
-                        count = 0;
-                        sum_time = 0.0;
-                        sum_temp = 0.0;
-                        sums.fill(0.0);
-                    }
+                    let open = (&mut index, &mut count, &mut sum_time, &mut sum_temp);
+                    closed.switch_to(k, open, sums);
                     #[allow(clippy::cast_precision_loss)]
                     let l = k as f64;
                     (lo, hi) = (l, l + 1.0);
@@ -1026,16 +1040,8 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
             // `lo <= x < hi` <=> `x.floor() as i64 == index`: skip the floor.
             if !(x >= lo && x < hi) {
                 let k = x.floor() as i64;
-                if count == 0 || k != index {
-                    if count > 0 {
-                        closed.push(index, count, sum_time, sum_temp, sums);
-                    }
-                    index = k;
-                    count = 0;
-                    sum_time = 0.0;
-                    sum_temp = 0.0;
-                    sums.fill(0.0);
-                }
+                let open = (&mut index, &mut count, &mut sum_time, &mut sum_temp);
+                closed.switch_to(k, open, sums);
                 // Exact for |k| < 2^53; beyond, [lo, hi) holds at most `lo` itself.
                 lo = k as f64;
                 hi = lo + 1.0;

@@ -595,20 +595,26 @@ mod tests {
         }
     }
 
+    /// Series of up to `max_len` values: small integers (many ties), reals,
+    /// NaN, infinities and -0.0.
+    fn series(max_len: usize) -> impl Strategy<Value = Vec<f64>> {
+        prop::collection::vec(
+            prop_oneof![
+                4 => (-3i8..4).prop_map(f64::from),
+                4 => -1e3f64..1e3,
+                1 => Just(f64::NAN),
+                1 => Just(f64::INFINITY),
+                1 => Just(f64::NEG_INFINITY),
+                1 => Just(-0.0f64),
+            ],
+            0..max_len,
+        )
+    }
+
     proptest! {
         #[test]
         fn network_matches_sort_per_window_on_long_series(
-            y in prop::collection::vec(
-                prop_oneof![
-                    4 => (-3i8..4).prop_map(f64::from),
-                    4 => -1e3f64..1e3,
-                    1 => Just(f64::NAN),
-                    1 => Just(f64::INFINITY),
-                    1 => Just(f64::NEG_INFINITY),
-                    1 => Just(-0.0f64),
-                ],
-                0..700,
-            ),
+            y in series(700),
             window in 1usize..18,
         ) {
             let got = running_median(&y, window).unwrap();
@@ -617,17 +623,7 @@ mod tests {
 
         #[test]
         fn matches_sort_per_window(
-            y in prop::collection::vec(
-                prop_oneof![
-                    4 => (-3i8..4).prop_map(f64::from),
-                    4 => -1e3f64..1e3,
-                    1 => Just(f64::NAN),
-                    1 => Just(f64::INFINITY),
-                    1 => Just(f64::NEG_INFINITY),
-                    1 => Just(-0.0f64),
-                ],
-                0..120,
-            ),
+            y in series(120),
             window in 1usize..40,
         ) {
             let got = running_median(&y, window).unwrap();
