@@ -308,12 +308,15 @@ impl TemperatureBinner {
             if count == 0 {
                 shift.copy_from_slice(row);
             }
+            // The count as a float, kept alongside (exact below 2^53; `u64 as
+            // f64` takes several instructions on baseline x86-64).
+            #[allow(clippy::cast_precision_loss)]
+            let mut k = count as f64;
             let mut j = i;
             loop {
                 let (t, temp, row) = (time_s[j], temperature_c[j], row_at(j));
                 count += 1;
-                #[allow(clippy::cast_precision_loss)]
-                let k = count as f64;
+                k += 1.0;
                 mean_t += (t - mean_t) / k;
                 mean_temp += (temp - mean_temp) / k;
                 for (((s, m), q), &x) in shift

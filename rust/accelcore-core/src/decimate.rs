@@ -178,7 +178,11 @@ impl BlockSums {
         self.index.len()
     }
 
-    #[inline]
+    // Called once per block from the hot loops; left to itself the compiler
+    // makes it a call (callgrind: ~9 instructions per sample with the call,
+    // ~4 inlined).
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
     fn push(&mut self, k: i64, count: u64, sum_t: f64, sum_temp: f64, sum_ch: &[f64]) {
         self.index.push(k);
         self.count.push(count);
