@@ -347,7 +347,7 @@ def test_a_bad_entry_is_a_miss_and_is_replaced(
     hits = cache.RunCache(tmp_path)
     for f in files_of(folder):
         if f.suffix == ".csv":
-            hit, _ = hits.lookup(f, _params_of(folder))
+            [(hit, _)] = hits.lookup_all([f], _params_of(folder))
             assert hit is not None, f  # replaced by a good entry
     assert_identical(load_session(folder, cache=tmp_path), cold)
 

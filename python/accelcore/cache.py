@@ -325,7 +325,7 @@ def _fingerprint(st: os.stat_result) -> Fingerprint:
 
 @dataclass(frozen=True)
 class Probe:
-    """A run file as :meth:`RunCache.lookup` saw it, just before it was read.
+    """A run file as :meth:`RunCache.lookup_all` saw it, just before it was read.
 
     Attributes
     ----------
@@ -523,10 +523,10 @@ class RunCache:
 
     Notes
     -----
-    :meth:`lookup` each run file (or :meth:`lookup_all` of them) before
-    reading it, :meth:`store` what was read, then :meth:`finish` (bounds the
-    folder's size). No method raises because of the cache: every problem is
-    a miss, and a folder that cannot be written gives one :class:`CacheWarning`.
+    :meth:`lookup_all` the run files before reading them, :meth:`store` what
+    was read, then :meth:`finish` (bounds the folder's size). No method raises
+    because of the cache: every problem is a miss, and a folder that cannot be
+    written gives one :class:`CacheWarning`.
     """
 
     def __init__(self, directory: Path) -> None:
@@ -550,31 +550,10 @@ class RunCache:
         directory = resolve_dir(cache)
         return None if directory is None else cls(directory)
 
-    def lookup(
-        self, file: Path, params: Mapping[str, Any]
-    ) -> tuple[tuple[RunRecord, str] | None, Probe | None]:
-        """Look a run file up, just before it would be read.
-
-        Parameters
-        ----------
-        file : pathlib.Path
-            The run file.
-        params : mapping
-            The reader parameters (see :func:`entry_key`).
-
-        Returns
-        -------
-        hit : (RunRecord, str) or None
-            The reader's result and the file's SHA-256, when the entry is valid.
-        probe : Probe or None
-            Pass it to :meth:`store` after a miss (None: do not store).
-        """
-        return self.lookup_all([file], params)[0]
-
     def lookup_all(
         self, files: Sequence[Path], params: Mapping[str, Any]
     ) -> list[tuple[tuple[RunRecord, str] | None, Probe | None]]:
-        """Look run files up, just before they would be read: :meth:`lookup` of each.
+        """Look run files up, just before they would be read.
 
         The entries found are read into one buffer, of which the arrays of
         every hit are views: they stay in memory as long as any of them does.
@@ -589,7 +568,9 @@ class RunCache:
         Returns
         -------
         list of (hit, probe)
-            What :meth:`lookup` returns, for each file.
+            For each file: ``hit``, the reader's result and the file's SHA-256
+            when the entry is valid (else None), and ``probe``, to pass to
+            :meth:`store` after a miss (None: do not store).
         """
         probes: list[Probe | None] = []
         for file in files:
@@ -638,7 +619,7 @@ class RunCache:
         Parameters
         ----------
         probe : Probe or None
-            From :meth:`lookup`.
+            From :meth:`lookup_all`.
         record : RunRecord
             What the reader returned.
         sha256 : str

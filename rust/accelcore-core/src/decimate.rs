@@ -938,6 +938,7 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
             let (rt, rtemp) = (&time_s[i..j], &temperature_c[i..j]);
             let rch = &flat[i * nc..j * nc];
             let fresh = count == 0 || k != index;
+            let mut summed = false;
             if fresh && nc <= SPECULATE_CHANNELS {
                 // A new block: sum the run from zero as the block's own sums
                 // would be (same operands, same order). A NaN or infinity makes
@@ -967,39 +968,32 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
                     #[allow(clippy::cast_precision_loss)]
                     let l = k as f64;
                     (lo, hi) = (l, l + 1.0);
-                    i = j;
-                    next = None;
-                    if i < n {
-                        #[allow(clippy::cast_precision_loss)]
-                        let after = k as f64 + 2.0;
-                        if let Some(e2) = Self::boundary(t0, rate_hz, factor, after) {
-                            next = Some((k + 1, end, e2));
-                        }
-                    }
-                    continue;
+                    summed = true;
                 }
             }
             // Row by row: the run continues the open block, or holds a NaN.
-            let mut opened = false;
-            for r in 0..run_len {
-                let row = &rch[r * nc..(r + 1) * nc];
-                if !(rtemp[r].is_finite() && all_finite(row)) {
-                    n_skipped += 1;
-                    continue;
-                }
-                if !opened {
-                    opened = true;
-                    let open = (&mut index, &mut count, &mut sum_time, &mut sum_temp);
-                    closed.switch_to(k, open, sums);
-                    #[allow(clippy::cast_precision_loss)]
-                    let l = k as f64;
-                    (lo, hi) = (l, l + 1.0);
-                }
-                count += 1;
-                sum_time += rt[r];
-                sum_temp += rtemp[r];
-                for (acc, &v) in sums.iter_mut().zip(row) {
-                    *acc += v;
+            if !summed {
+                let mut opened = false;
+                for r in 0..run_len {
+                    let row = &rch[r * nc..(r + 1) * nc];
+                    if !(rtemp[r].is_finite() && all_finite(row)) {
+                        n_skipped += 1;
+                        continue;
+                    }
+                    if !opened {
+                        opened = true;
+                        let open = (&mut index, &mut count, &mut sum_time, &mut sum_temp);
+                        closed.switch_to(k, open, sums);
+                        #[allow(clippy::cast_precision_loss)]
+                        let l = k as f64;
+                        (lo, hi) = (l, l + 1.0);
+                    }
+                    count += 1;
+                    sum_time += rt[r];
+                    sum_temp += rtemp[r];
+                    for (acc, &v) in sums.iter_mut().zip(row) {
+                        *acc += v;
+                    }
                 }
             }
             i = j;
