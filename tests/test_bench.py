@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import gc
+
 import pytest
 
 from accelcore import bench
@@ -44,7 +46,7 @@ def test_warm_up_calls_at_least_once(clock: FakeClock) -> None:
     assert bench.warm_up(slow, 0.0) == 1
 
 
-def test_measure_warms_up_before_memory_and_timed_calls(
+def test_measure_takes_memory_then_warms_up_then_times(
     clock: FakeClock, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     order: list[str] = []
@@ -62,8 +64,35 @@ def test_measure_warms_up_before_memory_and_timed_calls(
 
     monkeypatch.setattr(bench, "peak_rss_growth_mb", peak)
     row = bench.measure("x", fn, n=10, repeat=3, warmup_s=0.3)
-    # Two warm-up calls (0.4 s >= 0.3 s), then the memory call, then 3 timed ones.
-    assert order == ["warm", "warm", "memory", "timed", "timed", "timed"]
+    # One untimed call, the memory call, two warm-up calls (0.4 s >= 0.3 s), 3 timed ones.
+    assert order == ["warm", "memory", "timed", "timed", "timed", "timed", "timed"]
     assert row.peak_mb == 1.5
     assert row.wall_s == pytest.approx(0.2)
     assert row.rate == pytest.approx(10 / 0.2)
+
+
+def test_measure_times_with_the_collector_disabled_and_restores_it(clock: FakeClock) -> None:
+    seen: list[bool] = []
+
+    def fn() -> None:
+        seen.append(gc.isenabled())
+        clock.now += 0.3
+
+    assert gc.isenabled()
+    bench.measure("x", fn, n=1, repeat=2, memory=False, warmup_s=0.0)
+    # Without the memory call: the warm-up call and two timed calls, collector off.
+    assert seen == [False, False, False]
+    assert gc.isenabled()
+
+
+def test_measure_restores_the_collector_when_the_call_raises(clock: FakeClock) -> None:
+    calls = [0]
+
+    def fn() -> None:
+        calls[0] += 1
+        if calls[0] > 1:
+            raise RuntimeError("boom")
+
+    with pytest.raises(RuntimeError, match="boom"):
+        bench.measure("x", fn, n=1, repeat=2, memory=False, warmup_s=0.0)
+    assert gc.isenabled()

@@ -156,22 +156,36 @@ def measure(
     note: str = "",
     warmup_s: float = WARMUP_S,
 ) -> Row:
-    """Warm up, take the peak-RSS growth of one call, then the median of ``repeat`` timed calls.
+    """Peak-RSS growth of one call, then the median of ``repeat`` timed calls after a warm-up.
 
-    The warm-up (:func:`warm_up`, ``warmup_s`` seconds, at least one call) runs
-    before the memory call, so one-off costs (imports, first allocations) are
-    in neither the memory nor the timings.
+    With ``memory``, one untimed call comes first, so one-off costs (imports,
+    first allocations) are not in the memory figure. Then, as in
+    :mod:`timeit`, the garbage collector is run once and disabled; the
+    warm-up (:func:`warm_up`, ``warmup_s`` seconds, at least one call) and the
+    timed repetitions follow back to back. A collection walks the whole Python
+    heap: between repetitions it evicts the inputs from the processor's cache
+    and, on the machine of ``benches/results``, adds 1-1.5 ms to a 6 ms call
+    (``docs/benchmarks.md``); inside one it would time the collector.
     """
-    warm_up(fn, warmup_s)
-    peak = peak_rss_growth_mb(fn) if memory else None
-    walls, cpus = [], []
-    for _ in range(repeat):
-        gc.collect()
-        c0, w0 = time.thread_time(), time.perf_counter()
+    peak = None
+    if memory:
         fn()
-        w1, c1 = time.perf_counter(), time.thread_time()
-        walls.append(w1 - w0)
-        cpus.append(c1 - c0)
+        peak = peak_rss_growth_mb(fn)
+    walls, cpus = [], []
+    gc.collect()
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        warm_up(fn, warmup_s)
+        for _ in range(repeat):
+            c0, w0 = time.thread_time(), time.perf_counter()
+            fn()
+            w1, c1 = time.perf_counter(), time.thread_time()
+            walls.append(w1 - w0)
+            cpus.append(c1 - c0)
+    finally:
+        if was_enabled:
+            gc.enable()
     return Row(
         name=name,
         n=n,
