@@ -689,22 +689,25 @@ impl Decimator {
         let nc = self.config.n_channels;
         let min = self.config.min_count as u64;
         if sums.count.iter().all(|&c| c >= min) {
-            // Every block is kept: column by column, the same `sum / count`.
-            #[allow(clippy::cast_precision_loss)]
-            let mean = |(s, &c): (&f64, &u64)| s / c as f64;
+            // Every block is kept: the same `sum / count`, written in place.
+            let (start, n) = (out.len(), sums.len());
             out.block_index.extend_from_slice(&sums.index);
             out.count.extend_from_slice(&sums.count);
-            out.time_s
-                .extend(sums.sum_time.iter().zip(&sums.count).map(mean));
-            out.temperature_c
-                .extend(sums.sum_temp.iter().zip(&sums.count).map(mean));
-            if nc > 0 {
-                out.channels.reserve(sums.sum_ch.len());
-                for (row, &c) in sums.sum_ch.chunks_exact(nc).zip(&sums.count) {
-                    #[allow(clippy::cast_precision_loss)]
-                    let n = c as f64;
-                    out.channels.extend(row.iter().map(|s| s / n));
-                }
+            out.time_s.resize(start + n, 0.0);
+            out.temperature_c.resize(start + n, 0.0);
+            out.channels.resize((start + n) * nc, 0.0);
+            let dst = (
+                &mut out.time_s[start..],
+                &mut out.temperature_c[start..],
+                &mut out.channels[start * nc..],
+            );
+            match nc {
+                0 => block_means::<0>(sums, 0, dst),
+                1 => block_means::<1>(sums, 1, dst),
+                2 => block_means::<2>(sums, 2, dst),
+                3 => block_means::<3>(sums, 3, dst),
+                4 => block_means::<4>(sums, 4, dst),
+                _ => block_means::<0>(sums, nc, dst),
             }
             return;
         }
@@ -729,6 +732,39 @@ impl Decimator {
             s.push(o.index, o.count, o.sum_time, o.sum_temp, &o.sum_ch);
         }
         s
+    }
+}
+
+/// Means `sum / count` of every block of `sums` into `time_s`, `temperature_c`
+/// and `channels` (row-major, `nc` per row; `N` fixes `nc` at compile time,
+/// 0: any). Counts are far below 2^63, where `c as i64 as f64` is `c as f64`.
+#[allow(clippy::cast_possible_wrap, clippy::cast_precision_loss)]
+fn block_means<const N: usize>(
+    sums: &BlockSums,
+    nc: usize,
+    (time_s, temperature_c, channels): (&mut [f64], &mut [f64], &mut [f64]),
+) {
+    let nc = if N == 0 { nc } else { N };
+    let blocks = sums
+        .count
+        .iter()
+        .zip(&sums.sum_time)
+        .zip(&sums.sum_temp)
+        .zip(time_s.iter_mut().zip(temperature_c.iter_mut()));
+    for (((&c, &st), &sp), (t, p)) in blocks {
+        let n = c as i64 as f64;
+        *t = st / n;
+        *p = sp / n;
+    }
+    if nc == 0 {
+        return;
+    }
+    let rows = sums.sum_ch.chunks_exact(nc).zip(channels.chunks_exact_mut(nc));
+    for ((src, dst), &c) in rows.zip(&sums.count) {
+        let n = c as i64 as f64;
+        for (d, &v) in dst.iter_mut().zip(src) {
+            *d = v / n;
+        }
     }
 }
 

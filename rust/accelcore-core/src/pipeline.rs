@@ -152,9 +152,6 @@ pub struct FusedPipeline {
     n_blocks_dropped: u64,
     /// Scratch, reused: the blocks drained after a sub-chunk.
     drained: DecimatedBlocks,
-    /// Scratch for the fits, reused: design `[1, T - t_ref]` and weights.
-    design: Vec<f64>,
-    weights: Vec<f64>,
 }
 
 impl FusedPipeline {
@@ -203,8 +200,6 @@ impl FusedPipeline {
             n_blocks: 0,
             n_blocks_dropped: 0,
             drained: DecimatedBlocks::default(),
-            design: Vec::new(),
-            weights: Vec::new(),
         })
     }
 
@@ -354,8 +349,6 @@ impl FusedPipeline {
             n_blocks: early.n_blocks.saturating_add(late.n_blocks),
             n_blocks_dropped: early.n_blocks_dropped.saturating_add(late.n_blocks_dropped),
             drained: DecimatedBlocks::default(),
-            design: Vec::new(),
-            weights: Vec::new(),
         };
         let open_index = open_blocks(&merged.decimator).first().map(|b| b.index);
         let mut rest = seq.into_iter();
@@ -507,36 +500,66 @@ impl FusedPipeline {
             expected: n * nc,
             got: channels.len(),
         })?;
-        if nc > 0 {
-            // Block means are finite (the decimator skips non-finite rows); the
-            // fits can only reject `T - t_ref` overflowing. Validate it before
-            // touching the binner so that a rejected batch changes nothing.
+        if let Some(fit) = self.fit.as_mut() {
+            // Block means are finite unless a sum overflowed, and `T - t_ref`
+            // may overflow: screen both (branch-free) before touching the
+            // binner, so that a rejected batch changes nothing.
             let t_ref = self.config.t_ref_c;
-            self.design.clear();
-            self.design
-                .extend(temperature_c.iter().flat_map(|&t| [1.0, t - t_ref]));
-            self.weights.clear();
-            self.weights.extend(count.iter().map(|&c| c as f64));
-            if let Some(i) = self.design.iter().position(|v| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: "design (temperature_c - t_ref_c)",
-                    row: self.n_blocks + (i / 2) as u64,
-                    column: 1,
-                });
+            let finite = temperature_c
+                .iter()
+                .fold(true, |ok, &t| ok & (t - t_ref).is_finite())
+                & channels.iter().fold(true, |ok, v| ok & v.is_finite());
+            if !finite {
+                return Err(self.fit_error(count, temperature_c, view));
             }
-            let design =
-                ArrayView2::from_shape((n, 2), &self.design[..]).map_err(|_| Error::Shape {
-                    what: "design",
-                    expected: 2 * n,
-                    got: self.design.len(),
-                })?;
-            if let Some(fit) = self.fit.as_mut() {
-                fit.push_multi(design, view, Some(&self.weights))?;
-            }
+            fit.push_line_unchecked(temperature_c, t_ref, count, channels);
         }
         self.binner.push(time_s, temperature_c, view)?;
         self.n_blocks += n as u64;
         Ok(())
+    }
+}
+
+impl FusedPipeline {
+    /// The error for a batch with a non-finite `T - t_ref` or block mean:
+    /// the design's first bad row, otherwise the fit's own report of the
+    /// responses (as [`LeastSquares::push_multi`] gives it).
+    #[cold]
+    fn fit_error(
+        &mut self,
+        count: &[u64],
+        temperature_c: &[f64],
+        channels: ArrayView2<'_, f64>,
+    ) -> Error {
+        let t_ref = self.config.t_ref_c;
+        if let Some(i) = temperature_c
+            .iter()
+            .position(|&t| !(t - t_ref).is_finite())
+        {
+            return Error::NonFinite {
+                what: "design (temperature_c - t_ref_c)",
+                row: self.n_blocks + i as u64,
+                column: 1,
+            };
+        }
+        let design: Vec<f64> = temperature_c
+            .iter()
+            .flat_map(|&t| [1.0, t - t_ref])
+            .collect();
+        #[allow(clippy::cast_precision_loss)]
+        let weights: Vec<f64> = count.iter().map(|&c| c as f64).collect();
+        let pushed = match (
+            ArrayView2::from_shape((count.len(), 2), &design[..]),
+            self.fit.as_mut(),
+        ) {
+            (Ok(design), Some(fit)) => fit.push_multi(design, channels, Some(&weights)),
+            _ => Ok(()),
+        };
+        pushed.err().unwrap_or(Error::NonFinite {
+            what: "block means",
+            row: self.n_blocks,
+            column: 0,
+        })
     }
 }
 

@@ -313,66 +313,122 @@ impl LeastSquares {
             w.iter()
                 .fold(true, |ok, &w| ok & (w.is_finite() && w >= 0.0))
         });
+        let weight_of = |k: usize| weights.map_or(1.0, |w| w[k]);
         if let (Some(xs), Some(ys)) = (design.as_slice(), responses.as_slice()) {
             if !(all_finite(xs) && all_finite(ys) && weights_ok) {
                 self.first_invalid(design, responses, weights)?;
             }
             let m = self.n_responses;
-            if m > 0 {
-                let (rows, resp) = (xs.chunks_exact(p), ys.chunks_exact(m));
-                macro_rules! sized {
-                    ($(($pp:literal, $mm:literal)),*) => {
-                        match (p, m) {
-                            $(($pp, $mm) => self.accumulate::<_, _, $pp, $mm>(rows, resp, weights),)*
-                            _ => self.accumulate::<_, _, 0, 0>(rows, resp, weights),
-                        }
-                    };
+            let row_of = |k: usize, sw: f64, dst: &mut [f64]| {
+                let (dx, dy) = dst.split_at_mut(p);
+                for (d, &x) in dx.iter_mut().zip(&xs[k * p..(k + 1) * p]) {
+                    *d = sw * x;
                 }
-                sized!(
-                    (1, 1),
-                    (2, 1),
-                    (2, 2),
-                    (2, 3),
-                    (3, 1),
-                    (3, 3),
-                    (4, 1),
-                    (4, 3)
-                );
-                return Ok(());
+                for (d, &y) in dy.iter_mut().zip(&ys[k * m..(k + 1) * m]) {
+                    *d = sw * y;
+                }
+            };
+            macro_rules! sized {
+                ($(($pp:literal, $mm:literal)),*) => {
+                    match (p, m) {
+                        $(($pp, $mm) => self.accumulate::<$pp, $mm>(n, weight_of, row_of),)*
+                        _ => self.accumulate::<0, 0>(n, weight_of, row_of),
+                    }
+                };
             }
+            sized!(
+                (1, 1),
+                (2, 1),
+                (2, 2),
+                (2, 3),
+                (3, 1),
+                (3, 3),
+                (4, 1),
+                (4, 3)
+            );
+            return Ok(());
         }
         let finite = |v: &f64| v.is_finite();
         let clean = design.iter().all(finite) && responses.iter().all(finite) && weights_ok;
         if !clean {
             self.first_invalid(design, responses, weights)?;
         }
-        let rows = responses.rows();
-        match design.as_slice() {
-            Some(flat) => {
-                self.accumulate::<_, _, 0, 0>(flat.chunks_exact(p), rows.into_iter(), weights);
+        let row_of = |k: usize, sw: f64, dst: &mut [f64]| {
+            let (dx, dy) = dst.split_at_mut(p);
+            for (d, &x) in dx.iter_mut().zip(design.row(k)) {
+                *d = sw * x;
             }
-            None => {
-                self.accumulate::<_, _, 0, 0>(design.rows().into_iter(), rows.into_iter(), weights);
+            for (d, &y) in dy.iter_mut().zip(responses.row(k)) {
+                *d = sw * y;
             }
-        }
+        };
+        self.accumulate::<0, 0>(n, weight_of, row_of);
         Ok(())
     }
 
-    /// Rotate validated rows into the state, `BLOCK_ROWS` at a time.
+    /// Push rows of the line design `[1, x_i - x_ref]`, weighted by `counts`,
+    /// with `n_responses` right-hand sides (`responses` row-major, `n x m`).
     ///
-    /// `P` and `M` fix the numbers of columns and responses at compile time
-    /// (0: take them from `self`), which unrolls the per-row loops for the
-    /// usual small fits; the operations are the same.
-    fn accumulate<'a, 'b, R, Y, const P: usize, const M: usize>(
+    /// The same arithmetic as [`LeastSquares::push_multi`] on the design
+    /// `[1, x - x_ref]` and the weights `counts as f64` (bit for bit), without
+    /// building them. The caller guarantees that there are 2 columns, that the
+    /// lengths agree, and that every `x_i - x_ref` and every response is
+    /// finite (the fused pipeline checks this and takes `push_multi`'s error
+    /// path otherwise).
+    pub(crate) fn push_line_unchecked(
         &mut self,
-        rows: impl Iterator<Item = R>,
-        responses: impl ExactSizeIterator<Item = Y>,
-        weights: Option<&[f64]>,
-    ) where
-        R: IntoIterator<Item = &'a f64>,
-        Y: IntoIterator<Item = &'b f64>,
-    {
-        let n_pushed = responses.len() as u64;
+        x: &[f64],
+        x_ref: f64,
+        counts: &[u64],
+        responses: &[f64],
+    ) {
+        debug_assert_eq!(self.n_columns, 2);
+        debug_assert_eq!(responses.len(), x.len() * self.n_responses);
+        match self.n_responses {
+            1 => self.push_line_sized::<1>(x, x_ref, counts, responses),
+            2 => self.push_line_sized::<2>(x, x_ref, counts, responses),
+            3 => self.push_line_sized::<3>(x, x_ref, counts, responses),
+            _ => self.push_line_sized::<0>(x, x_ref, counts, responses),
+        }
+    }
+
+    /// [`LeastSquares::push_line_unchecked`] for `M` responses (0: any).
+    fn push_line_sized<const M: usize>(
+        &mut self,
+        x: &[f64],
+        x_ref: f64,
+        counts: &[u64],
+        responses: &[f64],
+    ) {
+        let m = if M == 0 { self.n_responses } else { M };
+        // Counts are far below 2^63, where `c as i64 as f64` is `c as f64`
+        // (one instruction on baseline x86-64 instead of an unsigned sequence).
+        #[allow(clippy::cast_possible_wrap, clippy::cast_precision_loss)]
+        let weight_of = |k: usize| counts[k] as i64 as f64;
+        let row_of = |k: usize, sw: f64, dst: &mut [f64]| {
+            // `sw * 1.0` is `sw`: the design's first column.
+            dst[0] = sw;
+            dst[1] = sw * (x[k] - x_ref);
+            for (d, &y) in dst[2..].iter_mut().zip(&responses[k * m..(k + 1) * m]) {
+                *d = sw * y;
+            }
+        };
+        self.accumulate::<2, M>(x.len(), weight_of, row_of);
+    }
+
+    /// Rotate `n` validated rows into the state, `BLOCK_ROWS` at a time.
+    ///
+    /// Row `k` has weight `weight_of(k)`; rows of weight 0 are skipped, the
+    /// others are written by `row_of(k, sqrt(w), dst)` into `dst` as
+    /// `sqrt(w) [x | y]`. `P` and `M` fix the numbers of columns and responses
+    /// at compile time (0: take them from `self`), which unrolls the per-row
+    /// loops for the usual small fits; the operations are the same.
+    fn accumulate<const P: usize, const M: usize>(
+        &mut self,
+        n: usize,
+        weight_of: impl Fn(usize) -> f64,
+        mut row_of: impl FnMut(usize, f64, &mut [f64]),
+    ) {
         let p = if P == 0 { self.n_columns } else { P };
         let m = if M == 0 { self.n_responses } else { M };
         let width = p + m;
@@ -394,23 +450,18 @@ impl LeastSquares {
         let mut filled = 0_usize;
         // Weights often repeat (block counts): reuse the last square root.
         let (mut last_w, mut last_sw) = (1.0_f64, 1.0_f64);
-        for (k, (row, ys)) in rows.zip(responses).enumerate() {
-            let w = weights.map_or(1.0, |w| w[k]);
+        for k in 0..n {
+            let w = weight_of(k);
             if w == 0.0 {
                 continue;
             }
             if w.to_bits() != last_w.to_bits() {
                 (last_w, last_sw) = (w, w.sqrt());
             }
-            let sw = last_sw;
             let dst = &mut block[filled * width..(filled + 1) * width];
-            for ((s, c), &x) in dst[..p].iter_mut().zip(css.iter_mut()).zip(row) {
-                let v = sw * x;
-                *s = v;
+            row_of(k, last_sw, dst);
+            for (c, &v) in css.iter_mut().zip(&dst[..p]) {
                 *c += v * v;
-            }
-            for (d, &y) in dst[p..].iter_mut().zip(ys) {
-                *d = sw * y;
             }
             filled += 1;
             if filled == BLOCK_ROWS {
@@ -424,7 +475,7 @@ impl LeastSquares {
         }
         column_sum_squares[..p].copy_from_slice(css);
         *n_rows += accepted;
-        *rows_seen += n_pushed;
+        *rows_seen += n as u64;
     }
 
     /// The first non-finite value or negative weight of a chunk, in row order
