@@ -759,7 +759,10 @@ fn block_means<const N: usize>(
     if nc == 0 {
         return;
     }
-    let rows = sums.sum_ch.chunks_exact(nc).zip(channels.chunks_exact_mut(nc));
+    let rows = sums
+        .sum_ch
+        .chunks_exact(nc)
+        .zip(channels.chunks_exact_mut(nc));
     for ((src, dst), &c) in rows.zip(&sums.count) {
         let n = c as i64 as f64;
         for (d, &v) in dst.iter_mut().zip(src) {

@@ -48,7 +48,7 @@
 //! up to rounding (Chan et al. for the bins, an orthogonal merge for `R`,
 //! and, for a block split by the cut, `mean·count` sums recombined).
 //! The pieces' finite times must not overlap (either order is fine).
-use crate::binning::{BinnedStats, BinnerConfig, TemperatureBinner};
+use crate::binning::{BinnedStats, BinnerConfig, TemperatureBinner, RUN_CHANNELS};
 use crate::decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 use crate::error::{Error, Result};
 use crate::regression::{LeastSquares, LstsqSolution};
@@ -513,6 +513,13 @@ impl FusedPipeline {
                 return Err(self.fit_error(count, temperature_c, view));
             }
             fit.push_line_unchecked(temperature_c, t_ref, count, channels);
+            // Temperatures and channels are finite: if the times are too, the
+            // binner need not test every value again.
+            if nc <= RUN_CHANNELS && time_s.iter().fold(true, |ok, t| ok & t.is_finite()) {
+                self.binner.push_finite(time_s, temperature_c, channels);
+                self.n_blocks += n as u64;
+                return Ok(());
+            }
         }
         self.binner.push(time_s, temperature_c, view)?;
         self.n_blocks += n as u64;
@@ -532,10 +539,7 @@ impl FusedPipeline {
         channels: ArrayView2<'_, f64>,
     ) -> Error {
         let t_ref = self.config.t_ref_c;
-        if let Some(i) = temperature_c
-            .iter()
-            .position(|&t| !(t - t_ref).is_finite())
-        {
+        if let Some(i) = temperature_c.iter().position(|&t| !(t - t_ref).is_finite()) {
             return Error::NonFinite {
                 what: "design (temperature_c - t_ref_c)",
                 row: self.n_blocks + i as u64,
