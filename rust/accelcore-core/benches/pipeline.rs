@@ -36,7 +36,10 @@ fn data() -> (Vec<f64>, Vec<f64>, Array2<f64>) {
     let t: Vec<f64> = (0..n)
         .map(|i| {
             let dither = if jitter {
-                ((i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 11) as f64 / (1u64 << 53) as f64
+                // Row 0 is dithered too, so the grid (anchored at the first
+                // time) is not aligned with the rows: blocks hold 9 to 11 of them.
+                ((i as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 11) as f64
+                    / (1u64 << 53) as f64
             } else {
                 0.0
             };
