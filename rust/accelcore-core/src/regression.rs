@@ -313,26 +313,26 @@ impl LeastSquares {
             w.iter()
                 .fold(true, |ok, &w| ok & (w.is_finite() && w >= 0.0))
         });
-        let weight_of = |k: usize| weights.map_or(1.0, |w| w[k]);
+        // One iterator type for both cases: the weights, or 1.0 for ever.
+        let ws = || {
+            weights
+                .unwrap_or(&[])
+                .iter()
+                .copied()
+                .chain(std::iter::repeat(1.0))
+        };
         if let (Some(xs), Some(ys)) = (design.as_slice(), responses.as_slice()) {
             if !(all_finite(xs) && all_finite(ys) && weights_ok) {
                 self.first_invalid(design, responses, weights)?;
             }
             let m = self.n_responses;
-            let row_of = |k: usize, sw: f64, dst: &mut [f64]| {
-                let (dx, dy) = dst.split_at_mut(p);
-                for (d, &x) in dx.iter_mut().zip(&xs[k * p..(k + 1) * p]) {
-                    *d = sw * x;
-                }
-                for (d, &y) in dy.iter_mut().zip(&ys[k * m..(k + 1) * m]) {
-                    *d = sw * y;
-                }
-            };
+            let rows = || xs.chunks_exact(p).map(|r| r.iter().copied());
+            let resp = || ys.chunks_exact(m).map(|r| r.iter().copied());
             macro_rules! sized {
                 ($(($pp:literal, $mm:literal)),*) => {
                     match (p, m) {
-                        $(($pp, $mm) => self.accumulate::<$pp, $mm>(n, weight_of, row_of),)*
-                        _ => self.accumulate::<0, 0>(n, weight_of, row_of),
+                        $(($pp, $mm) => self.accumulate::<_, _, $pp, $mm>(rows(), resp(), ws()),)*
+                        _ => self.accumulate::<_, _, 0, 0>(rows(), resp(), ws()),
                     }
                 };
             }
@@ -353,16 +353,9 @@ impl LeastSquares {
         if !clean {
             self.first_invalid(design, responses, weights)?;
         }
-        let row_of = |k: usize, sw: f64, dst: &mut [f64]| {
-            let (dx, dy) = dst.split_at_mut(p);
-            for (d, &x) in dx.iter_mut().zip(design.row(k)) {
-                *d = sw * x;
-            }
-            for (d, &y) in dy.iter_mut().zip(responses.row(k)) {
-                *d = sw * y;
-            }
-        };
-        self.accumulate::<0, 0>(n, weight_of, row_of);
+        let rows = design.rows().into_iter().map(|r| r.into_iter().copied());
+        let resp = responses.rows().into_iter().map(|r| r.into_iter().copied());
+        self.accumulate::<_, _, 0, 0>(rows, resp, ws());
         Ok(())
     }
 
@@ -401,34 +394,32 @@ impl LeastSquares {
         responses: &[f64],
     ) {
         let m = if M == 0 { self.n_responses } else { M };
+        // `sw * 1.0` is `sw`: the design's first column, as push_multi computes it.
+        let rows = x.iter().map(|&t| [1.0, t - x_ref]);
+        let resp = responses.chunks_exact(m).map(|r| r.iter().copied());
         // Counts are far below 2^63, where `c as i64 as f64` is `c as f64`
         // (one instruction on baseline x86-64 instead of an unsigned sequence).
         #[allow(clippy::cast_possible_wrap, clippy::cast_precision_loss)]
-        let weight_of = |k: usize| counts[k] as i64 as f64;
-        let row_of = |k: usize, sw: f64, dst: &mut [f64]| {
-            // `sw * 1.0` is `sw`: the design's first column.
-            dst[0] = sw;
-            dst[1] = sw * (x[k] - x_ref);
-            for (d, &y) in dst[2..].iter_mut().zip(&responses[k * m..(k + 1) * m]) {
-                *d = sw * y;
-            }
-        };
-        self.accumulate::<2, M>(x.len(), weight_of, row_of);
+        let ws = counts.iter().map(|&c| c as i64 as f64);
+        self.accumulate::<_, _, 2, M>(rows, resp, ws);
     }
 
-    /// Rotate `n` validated rows into the state, `BLOCK_ROWS` at a time.
+    /// Rotate validated rows into the state, `BLOCK_ROWS` at a time.
     ///
-    /// Row `k` has weight `weight_of(k)`; rows of weight 0 are skipped, the
-    /// others are written by `row_of(k, sqrt(w), dst)` into `dst` as
-    /// `sqrt(w) [x | y]`. `P` and `M` fix the numbers of columns and responses
-    /// at compile time (0: take them from `self`), which unrolls the per-row
-    /// loops for the usual small fits; the operations are the same.
-    fn accumulate<const P: usize, const M: usize>(
+    /// `rows`, `responses` and `weights` give each row's `x`, `y` and weight;
+    /// rows of weight 0 are skipped. `P` and `M` fix the numbers of columns and
+    /// responses at compile time (0: take them from `self`), which unrolls the
+    /// per-row loops for the usual small fits; the operations are the same.
+    fn accumulate<R, Y, const P: usize, const M: usize>(
         &mut self,
-        n: usize,
-        weight_of: impl Fn(usize) -> f64,
-        mut row_of: impl FnMut(usize, f64, &mut [f64]),
-    ) {
+        rows: impl Iterator<Item = R>,
+        responses: impl ExactSizeIterator<Item = Y>,
+        weights: impl Iterator<Item = f64>,
+    ) where
+        R: IntoIterator<Item = f64>,
+        Y: IntoIterator<Item = f64>,
+    {
+        let n_pushed = responses.len() as u64;
         let p = if P == 0 { self.n_columns } else { P };
         let m = if M == 0 { self.n_responses } else { M };
         let width = p + m;
@@ -450,18 +441,22 @@ impl LeastSquares {
         let mut filled = 0_usize;
         // Weights often repeat (block counts): reuse the last square root.
         let (mut last_w, mut last_sw) = (1.0_f64, 1.0_f64);
-        for k in 0..n {
-            let w = weight_of(k);
+        for ((row, ys), w) in rows.zip(responses).zip(weights) {
             if w == 0.0 {
                 continue;
             }
             if w.to_bits() != last_w.to_bits() {
                 (last_w, last_sw) = (w, w.sqrt());
             }
+            let sw = last_sw;
             let dst = &mut block[filled * width..(filled + 1) * width];
-            row_of(k, last_sw, dst);
-            for (c, &v) in css.iter_mut().zip(&dst[..p]) {
+            for ((s, c), x) in dst[..p].iter_mut().zip(css.iter_mut()).zip(row) {
+                let v = sw * x;
+                *s = v;
                 *c += v * v;
+            }
+            for (d, y) in dst[p..].iter_mut().zip(ys) {
+                *d = sw * y;
             }
             filled += 1;
             if filled == BLOCK_ROWS {
@@ -475,7 +470,7 @@ impl LeastSquares {
         }
         column_sum_squares[..p].copy_from_slice(css);
         *n_rows += accepted;
-        *rows_seen += n as u64;
+        *rows_seen += n_pushed;
     }
 
     /// The first non-finite value or negative weight of a chunk, in row order
