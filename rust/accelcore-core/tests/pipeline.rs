@@ -226,45 +226,28 @@ fn time_order_and_shape_errors() {
 /// fit (the first block is held back, so block 5 is the fit's row 4).
 #[test]
 fn non_finite_block_means_and_design_are_errors() {
+    let push_error = |log: &Log, t_ref_c: f64| {
+        let mut cfg = config(None, 1);
+        cfg.t_ref_c = t_ref_c;
+        let mut p = FusedPipeline::new(cfg).unwrap();
+        match p.push(&log.t, &log.temp, log.ch.view()) {
+            Err(Error::NonFinite { what, row, column }) => (what, row, column),
+            other => panic!("expected a NonFinite error, got {other:?}"),
+        }
+    };
     // Two finite channel values whose sum overflows: block 5's mean is +inf.
     let mut log = make_log(200, 3, 0, 0);
     for i in 54..56 {
         log.ch[[i, 1]] = 1e308;
     }
-    let mut p = FusedPipeline::new(config(None, 1)).unwrap();
-    let err = p.push(&log.t, &log.temp, log.ch.view()).unwrap_err();
-    assert!(
-        matches!(
-            err,
-            Error::NonFinite {
-                what: "response",
-                row: 4,
-                column: 1
-            }
-        ),
-        "{err:?}"
-    );
-
+    assert_eq!(push_error(&log, 25.0), ("response", 4, 1));
     // Finite temperatures whose difference from t_ref overflows.
     let mut log = make_log(200, 3, 0, 0);
     for i in 50..60 {
         log.temp[i] = 1e308;
     }
-    let mut cfg = config(None, 1);
-    cfg.t_ref_c = -1.5e308;
-    let mut p = FusedPipeline::new(cfg).unwrap();
-    let err = p.push(&log.t, &log.temp, log.ch.view()).unwrap_err();
-    assert!(
-        matches!(
-            err,
-            Error::NonFinite {
-                what: "design (temperature_c - t_ref_c)",
-                row: 4,
-                column: 1
-            }
-        ),
-        "{err:?}"
-    );
+    let design = "design (temperature_c - t_ref_c)";
+    assert_eq!(push_error(&log, -1.5e308), (design, 4, 1));
 }
 
 #[test]
