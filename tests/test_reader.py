@@ -155,3 +155,43 @@ def test_missing_file_is_an_os_error(tmp_path: Path) -> None:
         read_run(str(tmp_path / "nope.csv"))
     assert isinstance(info.value, OSError)
     assert info.value.path.endswith("nope.csv")
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        HEADER + _rows(30),
+        # CRLF line ends, a byte-order mark, and a last line cut off mid-write: the
+        # digest covers every byte of the file, the dropped line included.
+        ("\ufeff" + HEADER + _rows(30)).replace("\n", "\r\n") + "1.50,20.3,1.5",
+        # Over 1 MB: several fills of the reader's buffer.
+        HEADER + _rows(30_000),
+    ],
+    ids=["plain", "crlf-bom-cut", "multi-buffer"],
+)
+def test_sha256_is_that_of_the_bytes_read(tmp_path: Path, text: str) -> None:
+    import hashlib
+
+    path = _log(tmp_path, text)
+    hashed = read_run(path, sha256=True)
+    plain = read_run(path)
+    assert hashed.sha256 == hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    assert plain.sha256 is None
+    np.testing.assert_array_equal(hashed.blocks.channels, plain.blocks.channels)
+    assert (hashed.n_rows, hashed.n_truncated_rows) == (plain.n_rows, plain.n_truncated_rows)
+
+
+def test_session_hashes_are_sha256_of_the_files(tmp_path: Path) -> None:
+    import hashlib
+
+    folder = tmp_path / "s"
+    from accelcore import simulate
+
+    simulate.session(folder, duration_h=0.1, soak_min=1.0, seed=4)
+    session = accelcore.load_session(folder, cache=False)
+    expected = {
+        f.name: hashlib.sha256(f.read_bytes()).hexdigest()
+        for f in folder.iterdir()
+        if f.suffix in (".csv", ".toml") and f.name != "truth.toml"
+    }
+    assert session.file_hashes() == expected

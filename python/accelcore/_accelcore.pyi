@@ -319,6 +319,9 @@ class RunData:
     def n_at_min(self) -> NDArray[np.uint64]: ...
     @property
     def n_at_max(self) -> NDArray[np.uint64]: ...
+    @property
+    def sha256(self) -> str | None:
+        """Hex SHA-256 of the bytes read, with ``read_run(..., sha256=True)``; else None."""
 
 def read_run(
     path: str,
@@ -333,11 +336,14 @@ def read_run(
     factor: int = 10,
     rate_hz: float = 20.0,
     min_count: int = 1,
+    sha256: bool = False,
 ) -> RunData:
     """Read one delimited log and decimate it on the fly; the file is never held whole.
 
     Channels are the required ``channel_columns`` then, with ``keep_extra_columns``,
-    every other column. Errors name the file, the 1-based line and column.
+    every other column. Errors name the file, the 1-based line and column. With
+    ``sha256``, the file's bytes are hashed as they are parsed (``RunData.sha256``):
+    the digest is that of exactly the bytes the result was read from.
 
     Raises
     ------

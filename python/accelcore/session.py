@@ -550,8 +550,10 @@ def load_session(
         "min_count": min_count,
     }
 
-    def read(file: Path) -> RunRecord:
-        return RunRecord.from_run_data(read_run(str(file), **params))
+    def read(file: Path) -> tuple[RunRecord, str]:
+        data = read_run(str(file), sha256=True, **params)
+        assert data.sha256 is not None  # asked for
+        return RunRecord.from_run_data(data), data.sha256
 
     toml_file = folder / "session.toml"
     run_files = [f for _, _, f in specs]
@@ -562,24 +564,21 @@ def load_session(
         for i, (hit, probe) in enumerate(store.lookup_all(run_files, params)):
             found[i], probes[i] = hit, probe
     missing = [i for i, hit in enumerate(found) if hit is None]
-    to_hash = [toml_file] + [run_files[i] for i in missing]
-    if missing:
-        # The Rust reader releases the GIL and hashlib does for large blocks: read the
-        # runs and hash every file (provenance) on all cores at once.
-        with ThreadPoolExecutor(max_workers=min(len(to_hash), os.cpu_count() or 1)) as pool:
-            pending_hashes = pool.map(_sha256, to_hash)
-            pending_records = pool.map(read, [run_files[i] for i in missing])
-            hashes = list(pending_hashes)
-            records = list(pending_records)
+    toml_sha256 = _sha256(toml_file)
+    if len(missing) > 1:
+        # The Rust reader releases the GIL: read the runs on all cores at once, each
+        # hashed (provenance) in the same pass as it is parsed.
+        with ThreadPoolExecutor(max_workers=min(len(missing), os.cpu_count() or 1)) as pool:
+            records = list(pool.map(read, [run_files[i] for i in missing]))
     else:
-        hashes, records = [_sha256(toml_file)], []
-    fresh = {i: (rec, sha) for i, rec, sha in zip(missing, records, hashes[1:], strict=True)}
+        records = [read(run_files[i]) for i in missing]
+    fresh = dict(zip(missing, records, strict=True))
     if store is not None:
         for i, (rec, sha) in fresh.items():
             store.store(probes[i], rec, sha)  # only if the file did not change meanwhile
         store.finish()
     runs = []
-    file_sha256 = {toml_file.name: hashes[0]}
+    file_sha256 = {toml_file.name: toml_sha256}
     for i, (orientation, gravity, file) in enumerate(specs):
         data, file_sha256[file.name] = found[i] or fresh[i]
         stats = RunStats(

@@ -31,8 +31,8 @@ pub use error::{Error, Result};
 pub use features::first_order_lag;
 pub use pipeline::{FusedPipeline, PipelineConfig, PipelineResult};
 pub use reader::{
-    merge_runs, plan_split, read_run, read_run_from, read_run_range, ChannelRange, CsvFormat,
-    RunData, SplitPlan,
+    merge_runs, plan_split, read_run, read_run_from, read_run_hashed, read_run_range, ChannelRange,
+    CsvFormat, RunData, SplitPlan,
 };
 pub use regression::{LeastSquares, LstsqSolution};
 pub use robust::running_median;

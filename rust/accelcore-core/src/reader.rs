@@ -20,6 +20,7 @@ use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
 use ndarray::ArrayView2;
+use sha2::{Digest, Sha256};
 
 use crate::decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 use crate::error::{Error, Result};
@@ -529,12 +530,41 @@ impl Batch {
 pub fn read_run(path: &Path, format: &CsvFormat, decimator: DecimatorConfig) -> Result<RunData> {
     let shown = path.display().to_string();
     let file = File::open(path).map_err(|e| io_error(&shown, &e))?;
-    read_run_from(
-        BufReader::with_capacity(1 << 20, file),
-        &shown,
-        format,
-        decimator,
-    )
+    read_run_from(file, &shown, format, decimator)
+}
+
+/// [`read_run`], and the SHA-256 of the file's bytes, hashed as they are parsed:
+/// the digest is that of exactly the bytes the result was read from, even if the
+/// file is being appended to meanwhile (bytes after a cut-off last line included).
+pub fn read_run_hashed(
+    path: &Path,
+    format: &CsvFormat,
+    decimator: DecimatorConfig,
+) -> Result<(RunData, [u8; 32])> {
+    let shown = path.display().to_string();
+    let file = File::open(path).map_err(|e| io_error(&shown, &e))?;
+    let mut hashing = HashingReader {
+        inner: file,
+        sha256: Sha256::new(),
+    };
+    let run = read_run_from(&mut hashing, &shown, format, decimator)?;
+    // The reader stops at the end of the file; this only makes sure of it.
+    std::io::copy(&mut hashing, &mut std::io::sink()).map_err(|e| io_error(&shown, &e))?;
+    Ok((run, hashing.sha256.finalize().into()))
+}
+
+/// A reader that feeds every byte it returns to a SHA-256.
+struct HashingReader<R> {
+    inner: R,
+    sha256: Sha256,
+}
+
+impl<R: Read> Read for HashingReader<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.sha256.update(&buf[..n]);
+        Ok(n)
+    }
 }
 
 /// Read a log from any reader (`path` is only used in messages).

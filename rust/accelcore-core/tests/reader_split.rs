@@ -3,8 +3,11 @@
 
 use std::io::Write;
 
+use sha2::Digest;
+
 use accelcore_core::{
-    merge_runs, plan_split, read_run, read_run_range, CsvFormat, DecimatorConfig, Error,
+    merge_runs, plan_split, read_run, read_run_hashed, read_run_range, CsvFormat, DecimatorConfig,
+    Error,
 };
 
 fn write_log(rows: usize, nan_every: usize, gap_at: usize) -> tempfile_path::TempLog {
@@ -165,4 +168,61 @@ fn a_piece_needs_the_block_origin() {
     .unwrap_err();
     assert!(matches!(err, Error::InvalidParameter { name: "t0_s", .. }));
     assert!(matches!(merge_runs(&[], 1, 20.0), Err(Error::Empty { .. })));
+}
+
+fn hex(digest: &[u8]) -> String {
+    digest.iter().fold(String::new(), |mut hex, b| {
+        std::fmt::Write::write_fmt(&mut hex, format_args!("{b:02x}")).unwrap();
+        hex
+    })
+}
+
+#[test]
+fn hashed_read_is_the_plain_read_and_the_files_sha256() {
+    let config = DecimatorConfig::default();
+    // A last line cut off mid-write: dropped from the data, but part of the file's
+    // bytes. The digest is coreutils' `sha256sum` of the same bytes.
+    let cut = tempfile_path::TempLog::new(
+        "time_s,temp_c,x,y,z\n0.00,20.0,1,2,3\n0.05,20.0,1,2,3\n0.10,20.1,1,2",
+    );
+    let (run, digest) = read_run_hashed(&cut.0, &CsvFormat::default(), config.clone()).unwrap();
+    assert_eq!(run.n_truncated_rows, 1);
+    assert_eq!(
+        run,
+        read_run(&cut.0, &CsvFormat::default(), config.clone()).unwrap()
+    );
+    assert_eq!(
+        hex(&digest),
+        "115f2c19404e0ef6db6779d4b68a6700e719155d7612013f4c5ee75b2cf2d318"
+    );
+    // 60k rows (about 3 MB) span several fills of the reader's buffer: every byte is
+    // hashed once, in order, as the one-shot digest of the whole file says.
+    let log = write_log(60_000, 11, 30_000);
+    let (run, digest) = read_run_hashed(&log.0, &CsvFormat::default(), config.clone()).unwrap();
+    assert_eq!(
+        run,
+        read_run(&log.0, &CsvFormat::default(), config).unwrap()
+    );
+    let whole = sha2::Sha256::digest(std::fs::read(&log.0).unwrap());
+    assert_eq!(digest, <[u8; 32]>::from(whole));
+}
+
+#[test]
+fn hashed_read_reports_the_same_errors() {
+    let bad = tempfile_path::TempLog::new("time_s,temp_c,x,y,z\n0.00,20.0,1,oops,3\n");
+    let plain = read_run(&bad.0, &CsvFormat::default(), DecimatorConfig::default()).unwrap_err();
+    let hashed =
+        read_run_hashed(&bad.0, &CsvFormat::default(), DecimatorConfig::default()).unwrap_err();
+    assert_eq!(plain.to_string(), hashed.to_string());
+    assert!(
+        matches!(
+            hashed,
+            Error::Parse {
+                line: 2,
+                column: 4,
+                ..
+            }
+        ),
+        "{hashed}"
+    );
 }

@@ -3,8 +3,8 @@
 use std::path::PathBuf;
 
 use accelcore_core::{
-    merge_runs, plan_split, read_run, read_run_range, ChannelRange, CsvFormat, DecimatorConfig,
-    RunData,
+    merge_runs, plan_split, read_run, read_run_hashed, read_run_range, ChannelRange, CsvFormat,
+    DecimatorConfig, RunData,
 };
 use numpy::{IntoPyArray, PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
@@ -29,6 +29,8 @@ pub(crate) struct PyRunData {
     channel_max: Py<PyArray1<f64>>,
     n_at_min: Py<PyArray1<u64>>,
     n_at_max: Py<PyArray1<u64>>,
+    /// Hex SHA-256 of the bytes read, when `read_run(..., sha256=True)` asked for it.
+    sha256: Option<String>,
 }
 
 impl PyRunData {
@@ -85,6 +87,7 @@ impl PyRunData {
                 self.n_at_min.clone_ref(py),
                 self.n_at_max.clone_ref(py),
             ),
+            self.sha256.clone(),
         );
         Ok((rebuild, (state,).into_pyobject(py)?.into_any()))
     }
@@ -97,12 +100,13 @@ type RunState<'py> = (
     (u64, u64, u64, u64),
     (f64, f64, f64),
     (Vec<f64>, Vec<f64>, Vec<u64>, Vec<u64>),
+    Option<String>,
 );
 
 /// Rebuild `RunData` from `__reduce__`'s state.
 #[pyfunction(name = "_run_from_state")]
 pub(crate) fn py_run_from_state(py: Python<'_>, state: RunState<'_>) -> PyResult<PyRunData> {
-    let (header, channel_names, blocks, counts, times, ranges) = state;
+    let (header, channel_names, blocks, counts, times, ranges, sha256) = state;
     let channel_ranges = (0..ranges.0.len())
         .map(|i| ChannelRange {
             min: ranges.0[i],
@@ -124,10 +128,10 @@ pub(crate) fn py_run_from_state(py: Python<'_>, state: RunState<'_>) -> PyResult
         max_interval_s: times.2,
         channel_ranges,
     };
-    run_to_py(py, run)
+    run_to_py(py, run, sha256)
 }
 
-fn run_to_py(py: Python<'_>, run: RunData) -> PyResult<PyRunData> {
+fn run_to_py(py: Python<'_>, run: RunData, sha256: Option<String>) -> PyResult<PyRunData> {
     let ranges = &run.channel_ranges;
     let channel_min: Vec<f64> = ranges.iter().map(|r| r.min).collect();
     let channel_max: Vec<f64> = ranges.iter().map(|r| r.max).collect();
@@ -148,6 +152,7 @@ fn run_to_py(py: Python<'_>, run: RunData) -> PyResult<PyRunData> {
         channel_max: channel_max.into_pyarray(py).unbind(),
         n_at_min: n_at_min.into_pyarray(py).unbind(),
         n_at_max: n_at_max.into_pyarray(py).unbind(),
+        sha256,
     })
 }
 
@@ -186,7 +191,8 @@ fn csv_format(
 #[pyo3(signature = (
     path, /, *, delimiter = ",", time_column = "time_s", temperature_column = "temp_c",
     channel_columns = vec!["x".to_string(), "y".to_string(), "z".to_string()],
-    keep_extra_columns = true, time_scale_to_s = 1.0, factor = 10, rate_hz = 20.0, min_count = 1
+    keep_extra_columns = true, time_scale_to_s = 1.0, factor = 10, rate_hz = 20.0, min_count = 1,
+    sha256 = false
 ))]
 pub(crate) fn py_read_run(
     py: Python<'_>,
@@ -200,6 +206,7 @@ pub(crate) fn py_read_run(
     factor: i64,
     rate_hz: f64,
     min_count: i64,
+    sha256: bool,
 ) -> PyResult<PyRunData> {
     let format = csv_format(
         delimiter,
@@ -216,9 +223,20 @@ pub(crate) fn py_read_run(
         min_count: count("min_count", min_count)?,
         t0_s: None,
     };
+    if sha256 {
+        let (run, digest) = run_detached(py, || read_run_hashed(&path, &format, config))?;
+        let hex = digest.iter().fold(String::with_capacity(64), |mut hex, b| {
+            hex.push(char::from(HEX_DIGITS[usize::from(b >> 4)]));
+            hex.push(char::from(HEX_DIGITS[usize::from(b & 15)]));
+            hex
+        });
+        return run_to_py(py, run, Some(hex));
+    }
     let run = run_detached(py, || read_run(&path, &format, config))?;
-    run_to_py(py, run)
+    run_to_py(py, run, None)
 }
+
+const HEX_DIGITS: &[u8; 16] = b"0123456789abcdef";
 
 /// `(ranges, t0_s)` of a split plan, as Python receives it.
 type SplitPlanTuple = (Vec<(u64, u64)>, Option<f64>);
@@ -292,7 +310,7 @@ pub(crate) fn py_read_run_range(
         t0_s: Some(t0_s),
     };
     let run = run_detached(py, || read_run_range(&path, &format, config, start, end))?;
-    run_to_py(py, run)
+    run_to_py(py, run, None)
 }
 
 /// Combine pieces of one log, in file order, into the one-pass result.
@@ -310,5 +328,5 @@ pub(crate) fn py_merge_runs(
         .map(|p| p.to_core(py))
         .collect::<PyResult<Vec<_>>>()?;
     let run = run_detached(py, || merge_runs(&parts, min_count, rate_hz))?;
-    run_to_py(py, run)
+    run_to_py(py, run, None)
 }
