@@ -6,10 +6,11 @@
 //! `ACCELCORE_BENCH_N` and `ACCELCORE_BENCH_REPEAT` change both).
 #![allow(clippy::print_stderr)]
 use accelcore_core::{
-    BinnerConfig, Decimator, DecimatorConfig, FusedPipeline, LeastSquares, PipelineConfig,
-    TemperatureBinner,
+    read_run, BinnerConfig, CsvFormat, Decimator, DecimatorConfig, FusedPipeline, LeastSquares,
+    PipelineConfig, TemperatureBinner,
 };
 use ndarray::{Array2, Axis, Slice};
+use std::fmt::Write as _;
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -128,6 +129,24 @@ fn throughput() {
         binner,
         ..PipelineConfig::default()
     };
+    if want("read") {
+        // A 20 Hz log as `accelcore.simulate` writes it (time to 0.01 s, temperature
+        // to 0.001 degC, volts to 1 uV), from disk (page cache) to decimated blocks.
+        let path = std::env::temp_dir().join(format!("accelcore-bench-{}.csv", t.len()));
+        let mut text = String::from("time_s,temp_c,x,y,z\n");
+        for (i, (ti, tc)) in t.iter().zip(&temp).enumerate() {
+            let v = |j: usize| 1.5 + ch[(i, j)] * 0.3 - 0.01 * ((i % 13) as f64);
+            writeln!(text, "{ti:.2},{tc:.3},{:.6},{:.6},{:.6}", v(0), v(1), v(2)).unwrap();
+        }
+        std::fs::write(&path, &text).unwrap();
+        let mb = text.len() as f64 / 1e6;
+        let rate = median_rate(|| {
+            black_box(read_run(&path, &CsvFormat::default(), DecimatorConfig::default()).unwrap());
+        });
+        report("read", rate);
+        eprintln!("{:<10} {:8.1} MB/s", "read", rate * mb / t.len() as f64);
+        std::fs::remove_file(&path).unwrap();
+    }
     if want("fused") {
         report(
             "fused",
