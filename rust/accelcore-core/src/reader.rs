@@ -151,17 +151,22 @@ fn read_line<R: BufRead>(
         .read_until(b'\n', line)
         .map_err(|e| io_error(path, &e))?;
     if n > MAX_LINE_BYTES && line.last() != Some(&b'\n') {
-        return Err(parse_error(
-            path,
-            line_no,
-            1,
-            format!(
-                "line longer than {MAX_LINE_BYTES} bytes: not a delimited text log \
-                 (binary data, or missing line ends?)"
-            ),
-        ));
+        return Err(line_too_long(path, line_no));
     }
     Ok(n)
+}
+
+/// The error for a line over [`MAX_LINE_BYTES`] (a binary file, or no line ends).
+fn line_too_long(path: &str, line_no: u64) -> Error {
+    parse_error(
+        path,
+        line_no,
+        1,
+        format!(
+            "line longer than {MAX_LINE_BYTES} bytes: not a delimited text log \
+             (binary data, or missing line ends?)"
+        ),
+    )
 }
 
 fn io_error(path: &str, err: &std::io::Error) -> Error {
@@ -342,15 +347,7 @@ impl<R: Read> BlockLines<R> {
                 return Ok(Some(&self.buf[line_start..self.end]));
             }
             if self.end - self.start > MAX_LINE_BYTES {
-                return Err(parse_error(
-                    path,
-                    line_no,
-                    1,
-                    format!(
-                        "line longer than {MAX_LINE_BYTES} bytes: not a delimited text log \
-                         (binary data, or missing line ends?)"
-                    ),
-                ));
+                return Err(line_too_long(path, line_no));
             }
             self.buf.copy_within(self.start..self.end, 0);
             self.end -= self.start;
