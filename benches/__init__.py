@@ -1,1 +1,1 @@
-"""Python-level benchmark cases of accelcore, run by ``accelcore bench`` (``accelcore.bench``)."""
+"""Python-level benchmark cases of accelcore, run by ``accelcore bench``."""

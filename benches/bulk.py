@@ -17,9 +17,9 @@ import time
 from pathlib import Path
 
 from accelcore import simulate
-from accelcore import simulate_effects as se
-from accelcore.bench import Context, Row, Table
-from accelcore.bulk import bulk
+from accelcore.apps.bench import Context, Row, Table
+from accelcore.apps.bulk import bulk
+from accelcore.simulate import effects as se
 
 SPEEDUP_TARGET = 1.8
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from accelcore.bench import Context, Table
+from accelcore.apps.bench import Context, Table
 from benches import bulk, diagnosis, end_to_end, kernels, memory, reading
 
 CASES: dict[str, Callable[[Context], list[Table]]] = {

@@ -19,9 +19,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from accelcore import diagnosis, simulate
-from accelcore import simulate_effects as se
-from accelcore.bench import Context, Table, measure
-from accelcore.session import Session
+from accelcore.apps.bench import Context, Table, measure
+from accelcore.input.session import Session
+from accelcore.simulate import effects as se
 
 LAG_TAU_S = 90.0
 

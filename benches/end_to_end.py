@@ -1,7 +1,7 @@
 """Case (c): calibrate a six-run session from disk, accelcore vs pandas + NumPy.
 
 accelcore is measured twice: cold (``cache=False``: every log parsed and hashed)
-and with a warm run cache (``accelcore.cache``), as when an archived session is
+and with a warm run cache (``accelcore.input.cache``), as when an archived session is
 loaded again to calibrate, diagnose and report.
 """
 
@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 import accelcore
-from accelcore import cache
-from accelcore.bench import Context, Table, measure
+from accelcore.apps.bench import Context, Table, measure
+from accelcore.input import cache
 from benches.session_data import count_rows, session_dir
 
 RUNS = {

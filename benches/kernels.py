@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from accelcore import core, reference
-from accelcore.bench import Context, Table, measure
+from accelcore.apps.bench import Context, Table, measure
 from benches.data import FloatArray, log
 
 BINS: dict[str, Any] = {"lo_c": -40.0, "hi_c": 85.0, "width_c": 0.5}

@@ -19,7 +19,7 @@ import sys
 import time
 
 from accelcore import simulate
-from accelcore.bench import REPO, Context, Row, Table
+from accelcore.apps.bench import REPO, Context, Row, Table
 
 PEAK_TARGET_MB = 100.0
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from accelcore import reference
 from accelcore._accelcore import read_run
-from accelcore.bench import Context, Row, Table, measure
+from accelcore.apps.bench import Context, Row, Table, measure
 from benches.data import FloatArray
 from benches.session_data import count_rows, session_dir
 

@@ -11,7 +11,7 @@ Hypothesis profiles, chosen by the environment variable
 ``thorough``
     2000 examples, no deadline, random; for occasional long hunts.
 
-The run cache of ``load_session`` (``accelcore.cache``) points at a temporary
+The run cache of ``load_session`` (``accelcore.input.cache``) points at a temporary
 folder for the whole test session, so no test reads or writes the user's
 ``~/.cache/accelcore/runs``.
 """

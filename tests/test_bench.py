@@ -6,7 +6,7 @@ import gc
 
 import pytest
 
-from accelcore import bench
+from accelcore.apps import bench
 
 
 class FakeClock:
@@ -22,7 +22,7 @@ class FakeClock:
 @pytest.fixture
 def clock(monkeypatch: pytest.MonkeyPatch) -> FakeClock:
     fake = FakeClock()
-    monkeypatch.setattr("accelcore.bench.time.perf_counter", fake)
+    monkeypatch.setattr("accelcore.apps.bench.time.perf_counter", fake)
     return fake
 
 

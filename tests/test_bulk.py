@@ -14,8 +14,8 @@ import pandas as pd
 import pytest
 
 from accelcore import simulate
-from accelcore.bulk import FAILURE_COLUMNS, FLEET_COLUMNS, bulk, find_sessions
-from accelcore.cli import main
+from accelcore.apps.bulk import FAILURE_COLUMNS, FLEET_COLUMNS, bulk, find_sessions
+from accelcore.apps.cli import main
 
 SENSORS = ("ADXL335", "MPU-9255", "ADXL327", "LIS344ALH")
 N_GOOD = 47

@@ -1,4 +1,4 @@
-"""The persistent run cache of load_session (accelcore.cache): a hit gives the very
+"""The persistent run cache of load_session (accelcore.input.cache): a hit gives the very
 Session a cold read gives, and nothing that changed a file, or the way it is read,
 is ever served from the cache."""
 
@@ -20,11 +20,12 @@ import numpy as np
 import pytest
 
 import accelcore
-from accelcore import cache, simulate
-from accelcore import session as session_module
-from accelcore.cache import CacheWarning
-from accelcore.cli import build_parser, main
-from accelcore.session import Session, load_session
+from accelcore import simulate
+from accelcore.apps.cli import build_parser, main
+from accelcore.input import cache
+from accelcore.input import session as session_module
+from accelcore.input.cache import CacheWarning
+from accelcore.input.session import Session, load_session
 
 real_read_run = accelcore._accelcore.read_run
 
@@ -689,7 +690,7 @@ def test_cli_no_cache(aged: dict[str, Path], cli_cache: Path, command: str) -> N
 
 
 def test_bulk_passes_the_cache_setting(aged: dict[str, Path], tmp_path: Path) -> None:
-    from accelcore.bulk import bulk
+    from accelcore.apps.bulk import bulk
 
     archive = aged["archive/part0"].parent
     bulk(archive, tmp_path / "off", jobs=1, diagnose=False, progress=False, cache=False)

@@ -14,9 +14,9 @@ from numpy.typing import NDArray
 
 import accelcore
 from accelcore import calibrate, datasheets, simulate
-from accelcore.calibration import AxisSummary, Calibration
+from accelcore.input.session import Session
 from accelcore.model import Term, base_terms
-from accelcore.session import Session
+from accelcore.result.calibration import AxisSummary, Calibration
 
 FloatArray = NDArray[np.float64]
 

@@ -20,7 +20,8 @@ import pandas as pd
 import pytest
 
 import accelcore
-from accelcore import cli, simulate
+from accelcore import simulate
+from accelcore.apps import cli
 from accelcore.model import Term, base_terms
 
 
@@ -491,16 +492,16 @@ def test_bench_forwards_its_arguments(monkeypatch: pytest.MonkeyPatch) -> None:
         seen.append(argv)
         return 3
 
-    fake = types.ModuleType("accelcore.bench")
+    fake = types.ModuleType("accelcore.apps.bench")
     fake.main = fake_main  # type: ignore[attr-defined]
-    monkeypatch.setitem(sys.modules, "accelcore.bench", fake)
+    monkeypatch.setitem(sys.modules, "accelcore.apps.bench", fake)
     monkeypatch.setattr(accelcore, "bench", fake, raising=False)
     assert run_main("bench", "--quick", "--help")[0] == 3
     assert seen == [["--quick", "--help"]]
 
 
 def test_bench_without_the_module_exits_2(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setitem(sys.modules, "accelcore.bench", None)
+    monkeypatch.setitem(sys.modules, "accelcore.apps.bench", None)
     status, out, err = run_main("bench")
     assert status == 2 and out == ""
     assert "benchmarks are not available" in err
@@ -544,7 +545,7 @@ def test_demo_generates_once_and_prints_the_tables(tmp_path: Path) -> None:
 
 
 def test_demo_default_folder() -> None:
-    from accelcore import demo
+    from accelcore.apps import demo
 
     root = Path(demo.__file__).resolve().parents[2]
     folder = demo.default_directory()

@@ -13,9 +13,9 @@ from numpy.typing import NDArray
 
 import accelcore
 from accelcore import calibrate, simulate
-from accelcore.calibration import Calibration
 from accelcore.errors import TemperatureRangeWarning
-from accelcore.session import Session
+from accelcore.input.session import Session
+from accelcore.result.calibration import Calibration
 
 FloatArray = NDArray[np.float64]
 AXES = ("x", "y", "z")

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from accelcore import simulate
-from accelcore import simulate_effects as se
-from accelcore.calibration import calibrate
-from accelcore.diagnosis import Diagnosis, diagnose, leg_labels, rate_c_per_min
+from accelcore.diagnosis import Diagnosis, diagnose, leg_labels, rate_c_per_min, residuals
+from accelcore.fitting.calibrate import calibrate
+from accelcore.input.session import Session
 from accelcore.model import AXES, Term
-from accelcore.session import Session
+from accelcore.simulate import effects as se
 
 SEEDS = (1, 2)
 
@@ -147,8 +147,8 @@ def test_validation_on_second_session_of_the_same_part() -> None:
     assert {"thermal_lag", "offset_curvature"} <= set(d.effects), d.text()
     other = make_session(effects, 7, t_start_c=5.0, t_end_c=55.0, duration_h=1.5, soak_min=20.0)
     err_cols = [f"err_{a}_mg" for a in AXES]
-    base = d.base.residuals(other)
-    improved = d.calibration.residuals(other)
+    base = residuals(d.base, other)
+    improved = residuals(d.calibration, other)
     keep = base["in_range"].to_numpy()
     rms_base = float(np.sqrt(np.mean(base.loc[keep, err_cols].to_numpy() ** 2)))
     rms_new = float(np.sqrt(np.mean(improved.loc[keep, err_cols].to_numpy() ** 2)))

@@ -15,7 +15,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 import accelcore  # noqa: E402
-from accelcore import plots, simulate  # noqa: E402
+from accelcore import simulate  # noqa: E402
+from accelcore.outputs import plots  # noqa: E402
 
 
 class Short(TypedDict):

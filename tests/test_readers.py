@@ -35,10 +35,11 @@ import numpy as np
 import pytest
 
 import accelcore
-from accelcore import readers, simulate
-from accelcore.calibration import Calibration
+from accelcore import simulate
 from accelcore.errors import DataQualityWarning, ParameterError
-from accelcore.session import AXES, Session
+from accelcore.input import readers
+from accelcore.input.session import AXES, Session
+from accelcore.result.calibration import Calibration
 
 KW: dict[str, Any] = {"sensor": "ADXL335", "seed": 7, "duration_h": 0.5, "soak_min": 5.0}
 RATE = 20.0

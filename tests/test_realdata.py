@@ -13,8 +13,8 @@ import pandas as pd
 import pytest
 
 from accelcore.diagnosis import Diagnosis, diagnose
+from accelcore.input.session import load_session
 from accelcore.model import AXES, Term
-from accelcore.session import load_session
 
 _NAME = "tofupilot_thermal_cycle"
 

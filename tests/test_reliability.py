@@ -24,7 +24,7 @@ import accelcore.errors
 from accelcore import simulate
 from accelcore._accelcore import read_run
 from accelcore.errors import DataQualityWarning
-from accelcore.quality import QualityIssue, check_session
+from accelcore.input.quality import QualityIssue, check_session
 
 ROOT = Path(__file__).resolve().parent.parent
 FloatArray = NDArray[np.float64]

@@ -16,8 +16,10 @@ matplotlib = pytest.importorskip("matplotlib", reason="matplotlib is the [plot] 
 matplotlib.use("Agg")
 
 import accelcore  # noqa: E402
-from accelcore import bulk, report, simulate  # noqa: E402
-from accelcore.cli import main  # noqa: E402
+from accelcore import simulate  # noqa: E402
+from accelcore.apps import bulk  # noqa: E402
+from accelcore.apps.cli import main  # noqa: E402
+from accelcore.outputs import report  # noqa: E402
 
 SERIAL = 'SN<7>&"q"'  # HTML metacharacters: must come out escaped
 SESSION_SECTIONS = ("summary", "datasheet", "figures", "diagnosis", "notes", "provenance")

@@ -1,13 +1,14 @@
-"""Calibration.residuals: error per decimated sample in mg, beside the observables."""
+"""accelcore.residuals: error per decimated sample in mg, beside the observables."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from accelcore import simulate
-from accelcore import simulate_effects as se
-from accelcore.calibration import calibrate
-from accelcore.session import Session
+from accelcore.diagnosis import residuals
+from accelcore.fitting.calibrate import calibrate
+from accelcore.input.session import Session
+from accelcore.simulate import effects as se
 
 
 def _session(effects: tuple[object, ...] = ()) -> Session:
@@ -28,7 +29,7 @@ def _session(effects: tuple[object, ...] = ()) -> Session:
 def test_columns_and_values_on_clean_data() -> None:
     session = _session()
     cal = calibrate(session)
-    df = cal.residuals(session)
+    df = residuals(cal, session)
     expected = {
         "run",
         "run_index",
@@ -63,7 +64,7 @@ def test_columns_and_values_on_clean_data() -> None:
 def test_residual_shows_an_injected_drift_in_time() -> None:
     session = _session((se.Drift(mg_per_h=(0.0, 0.0, 20.0)),))
     cal = calibrate(session)
-    df = cal.residuals(session)
+    df = residuals(cal, session)
     inside = df[df["in_range"] & (df["orientation"] == "OX+")]
     slope = np.polyfit(inside["elapsed_s"] / 3600.0, inside["err_z_mg"], 1)[0]
     assert slope > 5.0
@@ -71,7 +72,7 @@ def test_residual_shows_an_injected_drift_in_time() -> None:
 
 def test_branch_matches_sign_of_rate() -> None:
     session = _session()
-    df = calibrate(session).residuals(session)
+    df = residuals(calibrate(session), session)
     heating = df[df["branch"] == "heating"]
     cooling = df[df["branch"] == "cooling"]
     assert (heating["dtemp_dt_c_per_min"] > 0).all()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from accelcore import Session, calibrate, simulate
-from accelcore.quality import excluded_blocks
+from accelcore.input.quality import excluded_blocks
 
 SENSOR = "ADXL335"
 

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 import accelcore
 from accelcore import reference
 from accelcore.core import running_median
-from accelcore.quality import _median_of_finite, _robust_sigma, _running_median
+from accelcore.input.quality import _median_of_finite, _robust_sigma, _running_median
 from strategies import seeds
 
 FloatArray = NDArray[np.float64]

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 import accelcore
 from accelcore import calibrate, load_session, simulate
-from accelcore.session import Session
+from accelcore.input.session import Session
 
 FloatArray = NDArray[np.float64]
 

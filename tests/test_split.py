@@ -10,7 +10,7 @@ import pytest
 
 import accelcore
 from accelcore._accelcore import RunData, merge_runs, plan_split, read_run, read_run_range
-from accelcore.bulk import read_run_split
+from accelcore.apps.bulk import read_run_split
 
 
 @pytest.fixture(scope="module")

@@ -10,8 +10,7 @@ from __future__ import annotations
 
 from accelcore import core, datasheets
 from accelcore._accelcore import __version__
-from accelcore.calibration import Calibration, calibrate
-from accelcore.diagnosis import Diagnosis, diagnose
+from accelcore.diagnosis import Diagnosis, diagnose, residuals
 from accelcore.errors import (
     AccelcoreError,
     AccelcoreIOError,
@@ -26,7 +25,9 @@ from accelcore.errors import (
     SingularSystemError,
     TimeOrderError,
 )
-from accelcore.session import Run, Session, load_session
+from accelcore.fitting.calibrate import calibrate
+from accelcore.input.session import Run, Session, load_session
+from accelcore.result.calibration import Calibration
 
 __all__ = [
     "AccelcoreError",
@@ -51,4 +52,5 @@ __all__ = [
     "datasheets",
     "diagnose",
     "load_session",
+    "residuals",
 ]

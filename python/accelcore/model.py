@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from accelcore._accelcore import first_order_lag
+from accelcore.constants import AXES, DTDT_SMOOTHING_S
 from accelcore.errors import ParameterError
 
 __all__ = [
@@ -50,9 +51,6 @@ __all__ = [
     "evaluate_basis",
 ]
 
-AXES = ("x", "y", "z")
-#: Time constant of the causal smoothing behind the ``dTdt`` basis, s.
-DTDT_SMOOTHING_S = 60.0
 
 _POLY = re.compile(r"^dT\^([1-9])$")
 _LAG = re.compile(r"^lag\(([0-9.eE+-]+)\):dT\^([1-9])$")

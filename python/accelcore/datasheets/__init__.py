@@ -70,6 +70,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, Final
 
+from accelcore.constants import AXES, UNITS
 from accelcore.errors import AccelcoreError
 
 __all__ = [
@@ -103,11 +104,6 @@ MEASURED_SCHEMA: Final = "accelcore-measured/1"
 ENV_VAR: Final = "ACCELCORE_DATASHEETS"
 """Environment variable listing extra datasheet directories (``os.pathsep``-separated)."""
 
-AXES: Final = ("x", "y", "z")
-"""The sensor axes, in order."""
-
-UNITS: Final = ("V", "LSB", "g", "m/s2")
-"""Output units a part may have (as in the session format)."""
 
 PARAMETERS: Final = (
     "sensitivity",

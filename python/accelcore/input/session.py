@@ -25,8 +25,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from accelcore import core
 from accelcore._accelcore import read_run
-from accelcore.cache import CacheSetting, Probe, RunCache, RunRecord
+from accelcore.constants import (
+    AXES,
+    DEFAULT_COLUMNS,
+    DELIMITERS,
+    ORIENTATIONS,
+    SESSION_FORMAT,
+    TIME_UNITS,
+    UNITS,
+)
 from accelcore.errors import AccelcoreIOError, SessionFormatError
+from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
 
 __all__ = [
     "AXES",
@@ -39,21 +48,7 @@ __all__ = [
     "load_session",
 ]
 
-FORMAT = "accelcore-session/1"
-AXES = ("x", "y", "z")
-#: Gravity in g seen by each axis in each orientation (``OZ+``: Z up, +1 g on Z).
-ORIENTATIONS: dict[str, tuple[float, float, float]] = {
-    "OX+": (1.0, 0.0, 0.0),
-    "OX-": (-1.0, 0.0, 0.0),
-    "OY+": (0.0, 1.0, 0.0),
-    "OY-": (0.0, -1.0, 0.0),
-    "OZ+": (0.0, 0.0, 1.0),
-    "OZ-": (0.0, 0.0, -1.0),
-}
-UNITS = ("V", "LSB", "g", "m/s2")
-TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
-DELIMITERS = {",": ",", "\t": "\t", ";": ";", "\\t": "\t", "tab": "\t"}
-DEFAULT_COLUMNS = {"time": "time_s", "temperature": "temp_c", "x": "x", "y": "y", "z": "z"}
+FORMAT = SESSION_FORMAT
 
 
 def gravity_of(orientation: str) -> NDArray[np.float64]:
@@ -445,7 +440,7 @@ def load_session(
     min_count : int, default 1
         Blocks with fewer valid raw samples are dropped.
     cache : bool, str or os.PathLike, default True
-        The persistent run cache (:mod:`accelcore.cache`). True: the default
+        The persistent run cache (:mod:`accelcore.input.cache`). True: the default
         folder, ``$ACCELCORE_CACHE_DIR``, else ``$XDG_CACHE_HOME/accelcore/runs``,
         else ``~/.cache/accelcore/runs`` (off when ``ACCELCORE_CACHE=0``); a
         path: that folder; False: never read or write a cache.
@@ -466,7 +461,7 @@ def load_session(
 
     Warns
     -----
-    accelcore.cache.CacheWarning
+    accelcore.input.cache.CacheWarning
         The cache folder cannot be written (once per call); the result is the
         same as without the cache.
 

@@ -183,7 +183,7 @@ def run(
         0.
     """
     import accelcore
-    from accelcore.cli import _datasheet_section, summary_text
+    from accelcore.outputs.tables import datasheet_section, summary_text
 
     stream = out or sys.stdout
     folder, took = ensure_session(directory, regenerate=regenerate)
@@ -206,7 +206,7 @@ def run(
     joint = accelcore.calibrate(session, "joint")
     paper = accelcore.calibrate(session, "paper")
     print(f"\n{summary_text(joint)}", file=stream)
-    text, _ = _datasheet_section(joint)
+    text, _ = datasheet_section(joint)
     print(f"\n{text}", file=stream)
     print(f"\n{_tc_table(joint, paper, _truth(folder))}", file=stream)
     try:

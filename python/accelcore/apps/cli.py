@@ -34,19 +34,20 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from accelcore._accelcore import __version__
+from accelcore.constants import DEFAULT_COLUMNS as _DEFAULT_COLUMNS
+from accelcore.constants import DELIMITERS as _DELIMITERS
+from accelcore.constants import TIME_UNITS as _TIME_UNITS
 from accelcore.errors import AccelcoreError
+from accelcore.outputs.tables import datasheet_section, summary_text
 
-__all__ = ["JSON_SCHEMA", "build_parser", "json_document", "main", "summary_text", "write_json"]
+__all__ = ["JSON_SCHEMA", "build_parser", "json_document", "main", "write_json"]
 
 #: Version tag of every ``--json`` document; bumped on any incompatible change.
 JSON_SCHEMA = "accelcore-cli/1"
 #: Rows read per chunk by ``accelcore compensate``.
 DEFAULT_CHUNK_ROWS = 100_000
 
-_TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
-_DELIMITERS = {",": ",", "\t": "\t", "\\t": "\t", "tab": "\t", ";": ";"}
 _COLUMN_KEYS = ("time", "temperature", "x", "y", "z")
-_DEFAULT_COLUMNS = {"time": "time_s", "temperature": "temp_c", "x": "x", "y": "y", "z": "z"}
 # Bases whose value at a sample depends on earlier samples (see accelcore.model).
 _STATEFUL_PREFIXES = ("lag(", "dTdt", "elapsed_h")
 
@@ -134,77 +135,12 @@ def write_json(path: str | Path, document: Mapping[str, Any], stdout: TextIO | N
             tmp.unlink()
 
 
-# ---------------------------------------------------------------------- text output
-def _pm(value: float, se: float, digits: int) -> str:
-    if not math.isfinite(value):
-        return "n/a"
-    if not math.isfinite(se) or se == 0.0:
-        return f"{value:.{digits}f} (fixed)" if se == 0.0 else f"{value:.{digits}f}"
-    return f"{value:.{digits}f} ± {se:.1g}"
-
-
-def summary_text(cal: Any) -> str:
-    """Compact per-axis summary of a calibration for the terminal.
-
-    Parameters
-    ----------
-    cal : accelcore.Calibration
-
-    Returns
-    -------
-    str
-        A heading, one line per axis (offset and sensitivity at ``t_ref_c``,
-        both temperature coefficients, each with its standard error, and the
-        fit's RMS residual in mg), then what was not identified and the notes.
-    """
-    u = cal.units
-    lo, hi = cal.temperature_range_c
-    serial = f" #{cal.serial}" if cal.serial else ""
-    lines = [
-        f"Calibration ({cal.method}) of {cal.sensor or 'an unnamed sensor'}{serial}: "
-        f"T_ref {cal.t_ref_c:g} °C, fitted over {lo:.1f}…{hi:.1f} °C",
-        f"  {'axis':<5}{'offset ' + u:>22}{'sensitivity ' + u + '/g':>24}"
-        f"{'offset TC mg/°C':>22}{'sens. TC %/°C':>22}{'rms mg':>9}",
-    ]
-    digits = 0 if u == "LSB" else 5
-    for a in cal.axes:
-        s = cal.axis(a)
-        m = cal.axes[a]
-        rms = 1000.0 * m.rms_residual / s.sensitivity if s.sensitivity else math.nan
-        lines.append(
-            f"  {a:<5}{_pm(s.zero_g_offset, s.zero_g_offset_se, digits):>22}"
-            f"{_pm(s.sensitivity, s.sensitivity_se, digits + 1):>24}"
-            f"{_pm(s.offset_tc_mg_per_c, s.offset_tc_mg_per_c_se, 4):>22}"
-            f"{_pm(s.sensitivity_tc_pct_per_c, s.sensitivity_tc_pct_per_c_se, 5):>22}"
-            f"{rms:>9.3f}"
-        )
-    if cal.not_identified:
-        lines.append(f"  not identified: {', '.join(cal.not_identified)}")
-    lines += [f"  note: {n}" for n in cal.notes]
-    return "\n".join(lines)
-
-
-def _datasheet_section(cal: Any) -> tuple[str, Any]:
-    """Text of the datasheet comparison and its records (None when there is no datasheet)."""
-    from accelcore import datasheets
-
-    if not cal.sensor:
-        return "no datasheet comparison: the session names no sensor", None
-    try:
-        text = cal.datasheet_text()
-        table = cal.compare_datasheet().reset_index()
-    except datasheets.DatasheetError as exc:
-        return f"no datasheet comparison: {exc}", None
-    heading = f"Datasheet comparison, {cal.sensor} (layout of the paper's Tables 3/4 and 5/6)"
-    return f"{heading}\n{text}", table.to_dict(orient="records")
-
-
 # ---------------------------------------------------------------------- commands
 def _check_quality(session: Any) -> list[dict[str, Any]]:
     """Run the data-quality checks; each finding is also a warning printed on stderr."""
     import dataclasses
 
-    from accelcore.quality import check_session
+    from accelcore.input.quality import check_session
 
     return [dataclasses.asdict(issue) for issue in check_session(session, warn=True)]
 
@@ -217,7 +153,7 @@ def _cmd_calibrate(args: argparse.Namespace, out: TextIO) -> int:
     cal = accelcore.calibrate(
         session, args.method, t_ref_c=args.t_ref, window_c=(args.window[0], args.window[1])
     )
-    text, records = _datasheet_section(cal)
+    text, records = datasheet_section(cal)
     if args.save:
         cal.save(args.save)
     if args.json:
@@ -401,7 +337,7 @@ def _cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _cmd_bulk(args: argparse.Namespace, out: TextIO) -> int:
-    from accelcore.bulk import bulk
+    from accelcore.apps.bulk import bulk
 
     if args.jobs is not None and args.jobs < 1:
         raise _UsageError("--jobs must be >= 1")
@@ -433,7 +369,7 @@ def _cmd_report(args: argparse.Namespace, out: TextIO) -> int:
     try:
         import matplotlib
 
-        report = importlib.import_module("accelcore.report")
+        report = importlib.import_module("accelcore.outputs.report")
     except ImportError as exc:
         raise _UsageError(f"reports need matplotlib: pip install accelcore[plot] ({exc})") from exc
     matplotlib.use("Agg")  # files only, never a window
@@ -521,14 +457,14 @@ def _norm(name: str) -> str:
 
 def _cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
     try:
-        bench = importlib.import_module("accelcore.bench")
+        bench = importlib.import_module("accelcore.apps.bench")
     except ImportError as exc:
         raise _UsageError(f"the benchmarks are not available in this installation ({exc})") from exc
     return int(bench.main(list(args.bench_args)))
 
 
 def _cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
-    from accelcore import demo
+    from accelcore.apps import demo
 
     return int(
         demo.run(directory=args.dir, regenerate=args.regenerate, out=out, cache=not args.no_cache)

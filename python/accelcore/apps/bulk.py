@@ -42,8 +42,8 @@ from typing import Any, TextIO
 import pandas as pd
 
 from accelcore._accelcore import __version__
-from accelcore.cache import CacheSetting
 from accelcore.errors import AccelcoreError
+from accelcore.input.cache import CacheSetting
 
 __all__ = [
     "BULK_SCHEMA",

@@ -1,21 +1,14 @@
-"""Thermal calibration: fit zero-g offset and sensitivity against temperature.
+"""A calibration: per-axis model terms and coefficients, compensation, datasheet comparison, files.
 
-Two methods, one result type (:class:`Calibration`):
+:class:`Calibration` is what :func:`accelcore.calibrate` returns and what every
+consumer (diagnosis, reports, exports, the CLI) reads. Per axis an :class:`AxisModel`
+holds the model terms (:mod:`accelcore.model`), their fitted coefficients, which of
+them were estimated and their covariance. :class:`Compensator` turns raw output
+back into acceleration in g (the 3×3 model solved per sample in Rust), streaming.
+:meth:`Calibration.save` / :meth:`Calibration.load` write and read the versioned,
+checksummed JSON file.
 
-``method="paper"``
-    Sawicki & Walendziuk: decimate 20 Hz to 2 Hz, bin by temperature (0.5 °C
-    over 0–60 °C), per bin ``V0g = (V+ + V-)/2`` and ``S = (V+ - V-)/2`` from the
-    axis' two orientations (equations 8–10), then a line fit of each against
-    temperature.
-``method="joint"`` (default)
-    One weighted least-squares fit per axis over every decimated sample of
-    every run, with the gravity each orientation implies on that axis
-    (including the 0 g axes, which pin the offset down too). It uses every
-    sample rather than bin means of paired runs, needs no pairing (so one
-    orientation still calibrates what it identifies), and takes any list of
-    model terms (:mod:`accelcore.model`), which is how the diagnosis adds effects.
-
-What the data cannot identify is said, never invented: with one orientation
+What the data could not identify is said, never invented: with one orientation
 the vertical axis' offset and sensitivity cannot be told apart, so its
 sensitivity is held at its nominal value (datasheet typical, or exactly 1 g/g
 for sessions already in g) and reported in :attr:`Calibration.not_identified`.
@@ -27,40 +20,37 @@ import hashlib
 import json
 import math
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from accelcore import core
-from accelcore._accelcore import __version__, first_order_lag
 from accelcore._accelcore import compensate as _compensate
+from accelcore._accelcore import first_order_lag
+from accelcore.constants import STANDARD_GRAVITY
 from accelcore.errors import (
     AccelcoreIOError,
     CalibrationFileError,
     InsufficientDataError,
     ParameterError,
-    SingularSystemError,
     TemperatureRangeWarning,
 )
-from accelcore.model import AXES, Features, Term, base_terms, design_columns, evaluate_basis
-from accelcore.session import Run, Session
+from accelcore.files import atomic_write
+from accelcore.model import AXES, Features, Term, evaluate_basis
 
 __all__ = [
     "CALIBRATION_FORMAT",
     "AxisModel",
     "Calibration",
     "Compensator",
-    "calibrate",
     "nominal_sensitivity",
 ]
 
 CALIBRATION_FORMAT = "accelcore-calibration/1"
-STANDARD_GRAVITY = 9.80665
 
 
 def nominal_sensitivity(units: str, sensor: str | None) -> tuple[float, float, float] | None:
@@ -442,25 +432,6 @@ class Calibration:
             out += lines
         return "\n".join(out)
 
-    # ------------------------------------------------------------------ plots
-    def plot_raw(self, session: Session, run: int | str | None = None, ax: Any = None) -> Any:
-        """Figure 4 of the paper: one run's raw, decimated and binned output vs temperature."""
-        from accelcore import plots
-
-        return plots.plot_raw_vs_decimated(session, run, ax=ax, calibration=self)
-
-    def plot_sensitivity(self, session: Session, ax: Any = None) -> Any:
-        """Figure 6 of the paper: per-bin (V+ - V-)/2 and this model's sensitivity vs T."""
-        from accelcore import plots
-
-        return plots.plot_sensitivity_vs_temperature(session, self, ax=ax)
-
-    def plot_offset(self, session: Session, ax: Any = None) -> Any:
-        """Figure 7 of the paper: per-bin (V+ + V-)/2 and this model's zero-g offset vs T."""
-        from accelcore import plots
-
-        return plots.plot_offset_vs_temperature(session, self, ax=ax)
-
     # ------------------------------------------------------------------ compensation
     def _coefficient_matrices(
         self,
@@ -533,15 +504,6 @@ class Calibration:
         """
         return Compensator(self, warn_stacklevel=warn_stacklevel)
 
-    def residuals(self, session: Session) -> pd.DataFrame:
-        """Error in mg of every decimated sample, with the observables.
-
-        See :func:`accelcore.diagnosis.residuals`.
-        """
-        from accelcore.diagnosis import residuals
-
-        return residuals(self, session)
-
     # ------------------------------------------------------------------ files
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (the JSON file's body)."""
@@ -572,10 +534,7 @@ class Calibration:
         body = self.to_dict()
         text = json.dumps(body, sort_keys=True, allow_nan=True)
         doc = {"body": body, "sha256": hashlib.sha256(text.encode()).hexdigest()}
-        target = Path(path)
-        tmp = target.with_name(f".{target.name}.tmp")
-        tmp.write_text(json.dumps(doc, indent=1, sort_keys=True, allow_nan=True))
-        tmp.replace(target)
+        atomic_write(path, json.dumps(doc, indent=1, sort_keys=True, allow_nan=True))
 
     @classmethod
     def load(
@@ -768,433 +727,3 @@ def _fmt(v: object, digits: int = 4) -> str:
     if not isinstance(v, (int, float)) or math.isnan(v):
         return ""
     return f"{v:.{digits}g}"
-
-
-# ---------------------------------------------------------------------- fitting
-@dataclass
-class _Stacked:
-    """Decimated samples of every run inside the window, with per-run features."""
-
-    features: list[Features]
-    gravity: list[NDArray[np.float64]]
-    output: list[NDArray[np.float64]]
-    weight: list[NDArray[np.float64]]
-    run_index: list[int]
-    notes: list[str] = field(default_factory=list)
-
-    @property
-    def temperature_range_c(self) -> tuple[float, float]:
-        temps = np.concatenate([f.temperature_c for f in self.features])
-        return float(temps.min()), float(temps.max())
-
-
-def block_weights(run: Run, robust: bool = True) -> tuple[NDArray[np.float64], str | None]:
-    """Least-squares weight of each decimated block of a run, and a note on what was left out.
-
-    A block mean of ``count`` samples has variance ``sigma² / count``, so its
-    weight is its count. With ``robust``, spikes and blocks clipped at a rail
-    (:func:`accelcore.quality.excluded_blocks`) get weight 0.
-    """
-    weight = run.count.astype(np.float64)
-    if not robust:
-        return weight, None
-    from accelcore.quality import excluded_blocks
-
-    mask, n_spikes, n_clipped = excluded_blocks(run)
-    if not mask.any():
-        return weight, None
-    weight[mask] = 0.0
-    parts = [f"{n} spike block(s)" for n in (n_spikes,) if n] + [
-        f"{n} clipped block(s)" for n in (n_clipped,) if n
-    ]
-    return weight, f"{run.label}: left out {' and '.join(parts)} of {len(run)}"
-
-
-def stack_session(
-    session: Session,
-    t_ref_c: float,
-    window_c: tuple[float, float] | None,
-    runs: Sequence[int] | None = None,
-    robust: bool = True,
-) -> _Stacked:
-    """Per run: features, gravity, output and weights of the samples inside the window.
-
-    Features (elapsed time, lagged temperature) are computed on the whole run
-    first and then cut to the window, so a lag filter sees the run's history.
-    With ``robust``, spikes and clipped blocks get weight 0 (see :func:`block_weights`).
-    """
-    feats: list[Features] = []
-    grav, out, wts, idx = [], [], [], []
-    notes: list[str] = []
-    for i, run in enumerate(session.runs):
-        if runs is not None and i not in runs:
-            continue
-        time_s = run.time_s - run.time_s[0] if len(run) else run.time_s
-        whole = Features(run.temperature_c, time_s, run.extras, t_ref_c)
-        if window_c is None:
-            keep = np.ones(len(run), dtype=bool)
-        else:
-            keep = (run.temperature_c >= window_c[0]) & (run.temperature_c <= window_c[1])
-        if not keep.any():
-            continue
-        weight, note = block_weights(run, robust)
-        if note:
-            notes.append(note)
-        feats.append(_CutFeatures.cut(whole, keep))
-        grav.append(run.gravity_g)
-        out.append(run.output[keep])
-        wts.append(weight[keep])
-        idx.append(i)
-    if not feats:
-        lo, hi = window_c if window_c else (-math.inf, math.inf)
-        raise InsufficientDataError(
-            f"no decimated sample lies in the window {lo}…{hi} °C; widen window_c or log a "
-            "sweep that covers it"
-        )
-    return _Stacked(feats, grav, out, wts, idx, notes)
-
-
-class _CutFeatures(Features):
-    """Features of a run restricted to a mask, lag computed on the whole run."""
-
-    @classmethod
-    def cut(cls, whole: Features, keep: NDArray[np.bool_]) -> _CutFeatures:
-        obj = cls(
-            whole.temperature_c[keep],
-            None if whole.time_s is None else whole.time_s[keep],
-            {k: v[keep] for k, v in whole.extras.items()},
-            whole.t_ref_c,
-        )
-        obj._whole = whole
-        obj._keep = keep
-        return obj
-
-    _whole: Features
-    _keep: NDArray[np.bool_]
-
-    def lagged_temperature_c(self, tau_s: float) -> NDArray[np.float64]:
-        return self._whole.lagged_temperature_c(tau_s)[self._keep]
-
-
-def fit_axis(
-    axis: str,
-    terms: Sequence[Term],
-    data: _Stacked,
-    nominal: float | None,
-    references: Mapping[str, float],
-    rows: Sequence[int] | None = None,
-) -> tuple[AxisModel, list[str], list[str]]:
-    """Weighted least squares of one axis; fix what the data cannot identify.
-
-    Returns the model, the names of terms held fixed, and notes.
-    """
-    a = AXES.index(axis)
-    parts = range(len(data.features)) if rows is None else rows
-    design = np.vstack(
-        [design_columns(terms, data.features[i], data.gravity[i], references) for i in parts]
-    )
-    response = np.concatenate([data.output[i][:, a] for i in parts])
-    weight = np.concatenate([data.weight[i] for i in parts])
-    p = len(terms)
-    fixed = np.zeros(p)
-    estimated = np.ones(p, dtype=bool)
-    fixed_names: list[str] = []
-    notes: list[str] = []
-    names = [f"{axis}:{_public_name(t, axis)}" for t in terms]
-    # Drop all-zero columns first (e.g. the sensitivity of an axis that never saw gravity).
-    col_norm = np.sqrt((weight[:, None] * design**2).sum(axis=0))
-    while True:
-        for j in range(p):
-            if estimated[j] and col_norm[j] == 0.0:
-                estimated[j] = False
-        cols = np.flatnonzero(estimated)
-        if cols.size == 0:
-            raise InsufficientDataError(f"axis {axis}: no term of the model is identified")
-        y = response - design[:, ~estimated] @ fixed[~estimated]
-        lsq = core.LeastSquares(int(cols.size), column_names=[names[j] for j in cols])
-        lsq.push(np.ascontiguousarray(design[:, cols]), y, weight)
-        try:
-            sol = lsq.finish()
-            break
-        except SingularSystemError as exc:
-            for name in exc.columns:
-                estimated[names.index(name)] = False
-    for j in range(p):
-        if estimated[j]:
-            continue
-        t = terms[j]
-        if t.kind == "gain" and t.source == axis and t.basis == "1":
-            if nominal is None:
-                raise InsufficientDataError(
-                    f"axis {axis}: offset and sensitivity cannot be told apart with these "
-                    "orientations and no nominal sensitivity is known; log the opposite "
-                    f"orientation (O{axis.upper()}+ and O{axis.upper()}-) or name the sensor"
-                )
-            fixed[j] = nominal
-            notes.append(
-                f"{axis}: sensitivity held at nominal {nominal:g} (not identified by "
-                "these orientations); the fitted offset absorbs the rest"
-            )
-        fixed_names.append(names[j])
-        if t.kind == "gain" and t.source == axis and col_norm[j] > 0:
-            # The axis saw gravity, but one value of it only: this gain term is
-            # collinear with the offset term of the same basis, which then carries
-            # their sum. Say so rather than report it as the offset.
-            twin = next(
-                (k for k, u in enumerate(terms) if u.kind == "offset" and u.basis == t.basis),
-                None,
-            )
-            if twin is not None and estimated[twin]:
-                fixed_names.append(names[twin])
-                notes.append(
-                    f"{axis}: {_public_name(terms[twin], axis)} is identified only combined "
-                    f"with {_public_name(t, axis)} (one orientation of this axis); compensation "
-                    "of that orientation is right, the separate value is not"
-                )
-    # Refit if a nominal was introduced after the loop (response changed).
-    if np.any(fixed != 0):
-        cols = np.flatnonzero(estimated)
-        y = response - design[:, ~estimated] @ fixed[~estimated]
-        lsq = core.LeastSquares(int(cols.size), column_names=[names[j] for j in cols])
-        lsq.push(np.ascontiguousarray(design[:, cols]), y, weight)
-        sol = lsq.finish()
-    coefficients = fixed.copy()
-    coefficients[estimated] = sol.coefficients
-    covariance = np.zeros((p, p))
-    cols = np.flatnonzero(estimated)
-    covariance[np.ix_(cols, cols)] = sol.covariance
-    rms = math.sqrt(sol.residual_sum_squares / weight.sum())
-    model = AxisModel(
-        axis, tuple(terms), coefficients, covariance, estimated, int(response.shape[0]), rms
-    )
-    return model, fixed_names, notes
-
-
-def _public_name(term: Term, axis: str) -> str:
-    if term.kind == "offset":
-        return {"1": "offset", "dT^1": "offset_tc"}.get(term.basis, term.name)
-    if term.source == axis:
-        return {"1": "sensitivity", "dT^1": "sensitivity_tc"}.get(term.basis, term.name)
-    return term.name
-
-
-def _extra_references(session: Session, terms: Mapping[str, Sequence[Term]]) -> dict[str, float]:
-    refs: dict[str, float] = {}
-    for ts in terms.values():
-        for t in ts:
-            if t.basis.startswith("extra:") and t.basis not in refs:
-                name = t.basis[len("extra:") :]
-                values = np.concatenate([r.extras[name] for r in session.runs if name in r.extras])
-                refs[t.basis] = float(np.median(values))
-    return refs
-
-
-def _fit_joint(
-    session: Session,
-    terms: Mapping[str, Sequence[Term]],
-    t_ref_c: float,
-    window_c: tuple[float, float] | None,
-    references: Mapping[str, float] | None = None,
-    runs: Sequence[int] | None = None,
-    robust: bool = True,
-) -> tuple[dict[str, AxisModel], list[str], list[str], tuple[float, float], dict[str, float]]:
-    data = stack_session(session, t_ref_c, window_c, runs, robust)
-    nominal = nominal_sensitivity(session.units, session.sensor)
-    refs = dict(references) if references is not None else _extra_references(session, terms)
-    axes: dict[str, AxisModel] = {}
-    not_identified: list[str] = []
-    notes: list[str] = list(data.notes)
-    for i, a in enumerate(AXES):
-        model, fixed, axis_notes = fit_axis(
-            a, terms[a], data, None if nominal is None else nominal[i], refs
-        )
-        axes[a] = model
-        not_identified += fixed
-        notes += axis_notes
-    return axes, not_identified, notes, data.temperature_range_c, refs
-
-
-def _fit_paper(
-    session: Session,
-    t_ref_c: float,
-    window_c: tuple[float, float],
-    bin_width_c: float,
-    robust: bool = True,
-) -> tuple[dict[str, AxisModel], list[str], list[str], tuple[float, float]]:
-    """Equations 8–10 per temperature bin, then line fits (the seed paper's method)."""
-    binners: dict[str, core.TemperatureBinner] = {}
-    excluded: list[str] = []
-    for run in session.runs:
-        b = core.TemperatureBinner(
-            lo_c=window_c[0], hi_c=window_c[1], width_c=bin_width_c, n_channels=3
-        )
-        weight, note = block_weights(run, robust)
-        if note:
-            excluded.append(note)
-        use = weight > 0
-        if use.all():
-            b.push(run.time_s, run.temperature_c, run.output)
-        else:
-            # Row selection by index: boolean indexing of a 2-D array is several times slower.
-            rows = np.flatnonzero(use)
-            b.push(run.time_s[rows], run.temperature_c[rows], run.output.take(rows, axis=0))
-        if run.orientation in binners:
-            binners[run.orientation].merge(b)  # repeat sweeps of one orientation
-        else:
-            binners[run.orientation] = b
-    stats = {o: b.finish() for o, b in binners.items()}
-    axes: dict[str, AxisModel] = {}
-    not_identified: list[str] = []
-    notes: list[str] = excluded
-    t_lo, t_hi = math.inf, -math.inf
-    for i, a in enumerate(AXES):
-        plus, minus = stats.get(f"O{a.upper()}+"), stats.get(f"O{a.upper()}-")
-        terms = base_terms(a)
-        if plus is None or minus is None:
-            not_identified += [
-                f"{a}:offset",
-                f"{a}:offset_tc",
-                f"{a}:sensitivity",
-                f"{a}:sensitivity_tc",
-            ]
-            notes.append(
-                f"{a}: the paper's method needs both O{a.upper()}+ and "
-                f"O{a.upper()}- runs; use method='joint' for partial sessions"
-            )
-            axes[a] = AxisModel(
-                a,
-                terms,
-                np.full(4, np.nan),
-                np.full((4, 4), np.nan),
-                np.zeros(4, dtype=bool),
-                0,
-                math.nan,
-            )
-            continue
-        both = (plus.count > 0) & (minus.count > 0)
-        if np.count_nonzero(both) < 3:
-            raise InsufficientDataError(
-                f"axis {a}: only {np.count_nonzero(both)} temperature bins hold both "
-                f"O{a.upper()}+ and O{a.upper()}- data; need at least 3 (log sweeps that "
-                f"overlap in {window_c[0]}…{window_c[1]} °C)"
-            )
-        v_pos, v_neg = plus.mean[both, i], minus.mean[both, i]
-        temp = 0.5 * (plus.temperature_c[both] + minus.temperature_c[both])
-        zero_g = 0.5 * (v_pos + v_neg)  # equation (8)
-        sens = 0.5 * (v_pos - v_neg)  # equations (9)-(10) with g = ±1
-        design = np.column_stack([np.ones_like(temp), temp - t_ref_c])
-        coefficients = np.zeros(4)
-        covariance = np.zeros((4, 4))
-        rss = 0.0
-        for k, y in ((0, zero_g), (2, sens)):
-            lsq = core.LeastSquares(2, column_names=["value_at_t_ref", "slope_per_c"])
-            lsq.push(design, y)
-            sol = lsq.finish()
-            coefficients[k : k + 2] = sol.coefficients
-            covariance[k : k + 2, k : k + 2] = sol.covariance
-            rss += sol.residual_sum_squares
-        axes[a] = AxisModel(
-            a,
-            terms,
-            coefficients,
-            covariance,
-            np.ones(4, dtype=bool),
-            int(np.count_nonzero(both)),
-            math.sqrt(rss / (2 * both.sum())),
-        )
-        t_lo, t_hi = min(t_lo, float(temp.min())), max(t_hi, float(temp.max()))
-    if math.isinf(t_lo):
-        raise InsufficientDataError(
-            "the paper's method needs, for at least one axis, both of its orientations "
-            f"(runs here: {', '.join(session.orientations)}); use method='joint'"
-        )
-    return axes, not_identified, notes, (t_lo, t_hi)
-
-
-def calibrate(
-    session: Session,
-    method: Literal["joint", "paper"] = "joint",
-    *,
-    t_ref_c: float = 25.0,
-    window_c: tuple[float, float] | None = (0.0, 60.0),
-    bin_width_c: float = 0.5,
-    terms: Mapping[str, Sequence[Term]] | None = None,
-    robust: bool = True,
-) -> Calibration:
-    """Calibrate zero-g offset and sensitivity against temperature.
-
-    Parameters
-    ----------
-    session : Session
-        From :func:`accelcore.load_session` or :meth:`Session.from_arrays`.
-    method : {"joint", "paper"}, default "joint"
-        See the module docs.
-    t_ref_c : float, default 25.0
-        Reference temperature of the reported offset and sensitivity, °C.
-    window_c : (float, float) or None, default (0, 60)
-        Only samples with logged temperature in this window are used (the
-        paper's 0–60 °C, away from the chamber's unstable ends). None: all.
-    bin_width_c : float, default 0.5
-        Temperature bin width of the paper's method, °C.
-    terms : mapping of axis to sequence of Term, optional
-        Model terms of the joint fit; default :func:`accelcore.model.base_terms`.
-    robust : bool, default True
-        Leave out decimated blocks that are spikes or clipped at a rail
-        (:func:`accelcore.quality.excluded_blocks`); what was left out is listed in
-        :attr:`Calibration.notes`. Clean data loses nothing.
-
-    Returns
-    -------
-    Calibration
-
-    Raises
-    ------
-    accelcore.InsufficientDataError
-        No data in the window, too few bins, or nothing identifiable; the
-        message says what data would fix it.
-    """
-    if method not in ("joint", "paper"):
-        raise ParameterError(f"method must be 'joint' or 'paper', got {method!r}")
-    session.check_orientations()
-    options: dict[str, Any] = {
-        "method": method,
-        "t_ref_c": t_ref_c,
-        "window_c": None if window_c is None else list(window_c),
-        "bin_width_c": bin_width_c,
-        "decimation_factor": session.decimation_factor,
-        "robust": robust,
-    }
-    refs: dict[str, float] = {}
-    if method == "paper":
-        if terms is not None:
-            raise ParameterError("terms= applies to method='joint' only")
-        axes, not_identified, notes, t_range = _fit_paper(
-            session, t_ref_c, window_c or (-273.15, 1000.0), bin_width_c, robust
-        )
-    else:
-        model_terms = {a: tuple(terms[a]) if terms and a in terms else base_terms(a) for a in AXES}
-        axes, not_identified, notes, t_range, refs = _fit_joint(
-            session, model_terms, t_ref_c, window_c, robust=robust
-        )
-    provenance: dict[str, Any] = {
-        "accelcore_version": __version__,
-        "session_path": session.path,
-        "files_sha256": session.file_hashes(),
-    }
-    return Calibration(
-        method=method,
-        units=session.units,
-        t_ref_c=float(t_ref_c),
-        window_c=(-math.inf, math.inf)
-        if window_c is None
-        else (float(window_c[0]), float(window_c[1])),
-        temperature_range_c=t_range,
-        axes=axes,
-        not_identified=tuple(not_identified),
-        notes=tuple(notes),
-        sensor=session.sensor,
-        serial=session.serial,
-        references=refs,
-        options=options,
-        provenance=provenance,
-    )

@@ -7,7 +7,7 @@ table with residual plots before and after, the notes and what the data could
 not identify, and provenance (accelcore version, SHA-256 of every input file).
 
 :func:`fleet_report` writes ``index.html`` for a folder written by
-:func:`accelcore.bulk.bulk` (recognised by its ``fleet.csv``): per sensor type
+:func:`accelcore.apps.bulk.bulk` (recognised by its ``fleet.csv``): per sensor type
 and temperature coefficient, the distribution across parts per axis against
 the datasheet limits, then the fleet table and the failures.
 
@@ -33,14 +33,15 @@ import numpy as np
 import pandas as pd
 
 from accelcore._accelcore import __version__
+from accelcore.constants import AXES
 from accelcore.errors import AccelcoreError
-from accelcore.session import AXES, Session
+from accelcore.input.session import Session
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from accelcore.calibration import Calibration
     from accelcore.diagnosis import Diagnosis
+    from accelcore.result.calibration import Calibration
 
 __all__ = ["FLEET_PARAMETERS", "fleet_report", "is_bulk_output", "session_report"]
 
@@ -181,7 +182,7 @@ def _guarded(label: str, draw: Callable[[], str]) -> str:
 
 # ---------------------------------------------------------------------- session report
 def _figure4(session: Session, cal: Calibration) -> str:
-    from accelcore import plots
+    from accelcore.outputs import plots
 
     picks: list[tuple[str, str]] = []
     orientations = set(session.orientations)
@@ -207,7 +208,7 @@ def _figure4(session: Session, cal: Calibration) -> str:
 
 
 def _paired_figure(session: Session, cal: Calibration, kind: str) -> str:
-    from accelcore import plots
+    from accelcore.outputs import plots
 
     names = [a for a in AXES if a in cal.axes]
     fig = _new_figure(4.2 * max(len(names), 1), 3.8)
@@ -432,7 +433,7 @@ def session_report(
 
 # ---------------------------------------------------------------------- fleet report
 def is_bulk_output(path: str | os.PathLike[str]) -> bool:
-    """Tell whether ``path`` is a folder written by :func:`accelcore.bulk.bulk` (has fleet.csv)."""
+    """Tell whether ``path`` is a folder written by ``accelcore bulk`` (has fleet.csv)."""
     return (Path(path) / "fleet.csv").is_file()
 
 
@@ -511,7 +512,7 @@ def fleet_report(
     Parameters
     ----------
     bulk_out_dir : path
-        A folder written by :func:`accelcore.bulk.bulk` (holding ``fleet.csv``;
+        A folder written by :func:`accelcore.apps.bulk.bulk` (holding ``fleet.csv``;
         ``failures.csv`` is shown when present).
     out_dir : path, optional
         Where to write ``index.html``; default ``bulk_out_dir`` itself.
@@ -530,7 +531,7 @@ def fleet_report(
     ImportError
         matplotlib is not installed.
     """
-    from accelcore.bulk import FLEET_COLUMNS
+    from accelcore.apps.bulk import FLEET_COLUMNS
 
     src = Path(bulk_out_dir)
     fleet_csv = src / "fleet.csv"

@@ -1,6 +1,6 @@
 """Benchmark runner: accelcore vs the NumPy reference, pandas and polars.
 
-``accelcore bench`` (or ``python -m accelcore.bench``) runs the cases in the
+``accelcore bench`` (or ``python -m accelcore.apps.bench``) runs the cases in the
 repository's ``benches/`` folder and prints one table per case. Every row of a
 table is measured in the same run on the same data: after an untimed warm-up,
 median of several repetitions (wall clock and the thread's CPU time), throughput, peak memory

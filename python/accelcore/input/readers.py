@@ -31,6 +31,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from accelcore import core
+from accelcore.constants import DEFAULT_COLUMNS, DELIMITERS, ORIENTATIONS, TIME_UNITS
 from accelcore.errors import (
     AccelcoreIOError,
     DataQualityWarning,
@@ -40,11 +41,7 @@ from accelcore.errors import (
     SessionFormatError,
     TimeOrderError,
 )
-from accelcore.session import (
-    DEFAULT_COLUMNS,
-    DELIMITERS,
-    ORIENTATIONS,
-    TIME_UNITS,
+from accelcore.input.session import (
     Run,
     RunStats,
     Session,

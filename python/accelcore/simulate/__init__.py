@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Final, Literal, Protocol, runtime_checkable
@@ -45,6 +45,7 @@ import numpy as np
 import numpy.typing as npt
 
 from accelcore import datasheets, paper
+from accelcore.constants import ORIENTATIONS
 
 __all__ = [
     "DEFAULT_ORIENTATIONS",
@@ -74,15 +75,6 @@ Stage = Literal["temperature", "stimulus", "response", "output"]
 STAGES: Final[tuple[Stage, ...]] = ("temperature", "stimulus", "response", "output")
 """Order in which effect stages run."""
 
-ORIENTATIONS: Final[Mapping[str, tuple[float, float, float]]] = {
-    "OX+": (1.0, 0.0, 0.0),
-    "OX-": (-1.0, 0.0, 0.0),
-    "OY+": (0.0, 1.0, 0.0),
-    "OY-": (0.0, -1.0, 0.0),
-    "OZ+": (0.0, 0.0, 1.0),
-    "OZ-": (0.0, 0.0, -1.0),
-}
-"""Gravity along the sensor axes (g) for each orientation label of the paper."""
 
 DEFAULT_ORIENTATIONS: Final = ("OX+", "OX-", "OY+", "OY-", "OZ+", "OZ-")
 

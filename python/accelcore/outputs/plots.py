@@ -28,12 +28,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from accelcore import core
-from accelcore.session import AXES, Run, Session
+from accelcore.constants import AXES
+from accelcore.constants import DELIMITERS as _DELIMITERS
+from accelcore.input.session import Run, Session
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
-    from accelcore.calibration import AxisModel, Calibration
+    from accelcore.result.calibration import AxisModel, Calibration
 
 __all__ = [
     "plot_offset_vs_temperature",
@@ -43,7 +45,6 @@ __all__ = [
 
 _POLY = re.compile(r"^(?:lag\([^)]*\):)?dT\^([1-9])$")
 _DEFAULT_WINDOW_C = (0.0, 60.0)
-_DELIMITERS = {",": ",", "\t": "\t", ";": ";", "\\t": "\t", "tab": "\t"}
 
 
 def _pyplot() -> Any:

@@ -34,7 +34,7 @@ cut of held-out squared error over the axes that accept it, then repeats.
 The fast path of the search works on per-block Gram matrices (scaled columns,
 eigen-decomposition with a rank cut for unidentifiable directions); the
 reported coefficients and their standard errors come from
-:func:`accelcore.calibration.fit_axis` (the core's Givens least squares).
+:func:`accelcore.fitting.calibrate.fit_axis` (the core's Givens least squares).
 Errors are per axis, linearised: the output residual divided by the axis'
 sensitivity, in mg.
 
@@ -57,23 +57,15 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from accelcore.calibration import (
-    AxisModel,
-    Calibration,
-    _CutFeatures,
-    _Stacked,
-    block_weights,
-    calibrate,
-    fit_axis,
-    nominal_sensitivity,
-)
 from accelcore.errors import (
     InsufficientDataError,
     ParameterError,
     TemperatureRangeWarning,
 )
+from accelcore.fitting.calibrate import CutFeatures, Stacked, block_weights, calibrate, fit_axis
+from accelcore.input.session import Session
 from accelcore.model import AXES, Features, Term, design_columns
-from accelcore.session import Session
+from accelcore.result.calibration import AxisModel, Calibration, nominal_sensitivity
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -510,7 +502,7 @@ class _Engine:
                 keep = inside & (legs == leg)
                 if np.count_nonzero(keep) < 2:
                     continue
-                feats.append(_CutFeatures.cut(whole, keep))
+                feats.append(CutFeatures.cut(whole, keep))
                 grav.append(run.gravity_g)
                 out.append(run.output[keep])
                 wts.append(weight[keep])
@@ -521,7 +513,7 @@ class _Engine:
                 rates.append(rate[keep])
         if not feats:
             raise InsufficientDataError("no decimated sample lies in the calibration's window")
-        self.data = _Stacked(feats, grav, out, wts, run_idx)
+        self.data = Stacked(feats, grav, out, wts, run_idx)
         self.part_run = part_run
         self.part_leg = part_leg
         sizes = [len(f) for f in feats]

@@ -1,7 +1,7 @@
 """Data-quality checks of a loaded session: what deserves a look before calibrating.
 
 :func:`check_session` inspects what the reader counted in each raw log
-(:class:`accelcore.session.RunStats`) and the decimated output, and returns one
+(:class:`accelcore.input.session.RunStats`) and the decimated output, and returns one
 :class:`QualityIssue` per finding, each with a message that says what was seen
 and, where it applies, what data would fix it. With ``warn=True`` (the
 default) each issue is also emitted as an :class:`accelcore.errors.DataQualityWarning`.
@@ -39,14 +39,14 @@ from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
 from accelcore._accelcore import running_median
+from accelcore.constants import AXES
 from accelcore.errors import DataQualityWarning
 
 if TYPE_CHECKING:
-    from accelcore.session import Run, Session
+    from accelcore.input.session import Run, Session
 
 __all__ = ["QualityIssue", "check_session", "excluded_blocks"]
 
-AXES = ("x", "y", "z")
 #: Robust standard deviations per unit of median absolute deviation (normal data).
 MAD_TO_SIGMA = 1.4826
 #: Blocks processed at a time by the sliding-window statistics (bounded memory).

@@ -1,0 +1,64 @@
+"""Facts every room shares, each defined once: axes, orientations, units, delimiters, gravity.
+
+Foundation: imports nothing of accelcore.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from types import MappingProxyType
+from typing import Final
+
+__all__ = [
+    "AXES",
+    "DEFAULT_COLUMNS",
+    "DELIMITERS",
+    "DTDT_SMOOTHING_S",
+    "ORIENTATIONS",
+    "SESSION_FORMAT",
+    "STANDARD_GRAVITY",
+    "TIME_UNITS",
+    "UNITS",
+]
+
+AXES: Final = ("x", "y", "z")
+"""The sensor axes, in order."""
+
+ORIENTATIONS: Final[Mapping[str, tuple[float, float, float]]] = MappingProxyType(
+    {
+        "OX+": (1.0, 0.0, 0.0),
+        "OX-": (-1.0, 0.0, 0.0),
+        "OY+": (0.0, 1.0, 0.0),
+        "OY-": (0.0, -1.0, 0.0),
+        "OZ+": (0.0, 0.0, 1.0),
+        "OZ-": (0.0, 0.0, -1.0),
+    }
+)
+"""Gravity in g seen by each axis in each orientation of the paper (``OZ+``: Z up, +1 g on Z)."""
+
+UNITS: Final = ("V", "LSB", "g", "m/s2")
+"""Output units a session (and a part's datasheet) may have."""
+
+TIME_UNITS: Final[Mapping[str, float]] = MappingProxyType(
+    {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+)
+"""Seconds per unit of a log's time column."""
+
+DELIMITERS: Final[Mapping[str, str]] = MappingProxyType(
+    {",": ",", "\t": "\t", ";": ";", "\\t": "\t", "tab": "\t"}
+)
+"""Field delimiters a session may name, and the character each stands for."""
+
+DEFAULT_COLUMNS: Final[Mapping[str, str]] = MappingProxyType(
+    {"time": "time_s", "temperature": "temp_c", "x": "x", "y": "y", "z": "z"}
+)
+"""Log column of each channel when ``session.toml`` has no ``[columns]`` table."""
+
+SESSION_FORMAT: Final = "accelcore-session/1"
+"""Value of ``format`` in ``session.toml``."""
+
+STANDARD_GRAVITY: Final = 9.80665
+"""Standard gravity, m/s² per g (sessions in m/s2)."""
+
+DTDT_SMOOTHING_S: Final = 60.0
+"""Time constant of the causal smoothing behind the ``dTdt`` model basis, s."""

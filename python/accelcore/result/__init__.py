@@ -1,0 +1,10 @@
+"""Result room: what a calibration *is* — the :class:`Calibration`, the compensator, file I/O.
+
+A calibration is a per-axis list of model terms and their fitted coefficients, with
+the covariance, the fitted range, notes and provenance. It can compensate raw data
+(in Rust, streaming), be compared with a datasheet, saved and loaded.
+
+May import: the foundation and the model room (:mod:`accelcore.model`). Never the
+fitting room that produces a calibration, nor the diagnosis, outputs or applications
+that consume one.
+"""
