@@ -30,7 +30,7 @@ def printing_half_unit(units: str, quantum: float) -> float:
     """Largest difference between a simulated value and its printed form in the log.
 
     The simulator prints LSB outputs as integers (exact) and volts with
-    ``max(6, ceil(-log10(quantum)) + 2)`` decimals (see ``simulate._value_format``),
+    ``max(6, ceil(-log10(quantum)) + 2)`` decimals (see ``simulate.writer._value_format``),
     so a printed volt value is off by at most half a unit of its last decimal.
     A block mean of such values is off by at most the same amount.
     """
@@ -141,7 +141,7 @@ def test_loaded_blocks_are_the_means_of_the_written_rows(
 def test_supply_column_is_kept_as_an_observable(
     sessions: dict[str, tuple[simulate.SimulatedSession, Session]],
 ) -> None:
-    """supply_v is 3 V + 0.5 mV rms noise per row (simulate._supply_column) for the ADXL335:
+    """supply_v is 3 V + 0.5 mV rms noise per row (simulate.runs.supply_column) for the ADXL335:
     its block means (86400 of them) must sit within 6 sigma of a 10-row mean (P(any beyond)
     ~ 86400 * 2e-9 < 1e-3) plus the 5-decimal print."""
     _, s = sessions["ADXL335"]

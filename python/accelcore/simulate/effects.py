@@ -35,7 +35,8 @@ import numpy as np
 import numpy.typing as npt
 
 from accelcore._accelcore import first_order_lag
-from accelcore.simulate import RunState, SimulatedArrays, Stage
+from accelcore.simulate.chain import RunState, Stage
+from accelcore.simulate.runs import SimulatedArrays
 
 __all__ = [
     "CompressorCycle",
