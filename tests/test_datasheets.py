@@ -102,7 +102,7 @@ def clean_registry(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
     monkeypatch.delenv(datasheets.ENV_VAR, raising=False)
     datasheets.reload()
     yield
-    datasheets._registered.clear()
+    datasheets.registry._registered.clear()
     datasheets.reload()
 
 
