@@ -526,23 +526,24 @@ def load_cases(folder: Path) -> Mapping[str, Case]:
             f"{folder}: not a benches folder (a package named benches holding cases.py); "
             "run from a source checkout's root or pass --benches DIR"
         )
-    loaded = sys.modules.get("benches")
+    package = folder.name  # the cases' package is the folder named on the command line
+    loaded = sys.modules.get(package)
     if loaded is None:
         spec = importlib.util.spec_from_file_location(
-            "benches", init, submodule_search_locations=[str(folder)]
+            package, init, submodule_search_locations=[str(folder)]
         )
         if spec is None or spec.loader is None:  # pragma: no cover - a .py file always has one
             raise ImportError(f"{init}: cannot be imported")
         module = importlib.util.module_from_spec(spec)
-        sys.modules["benches"] = module
+        sys.modules[package] = module
         try:
             spec.loader.exec_module(module)
         except BaseException:
-            del sys.modules["benches"]
+            del sys.modules[package]
             raise
     elif [str(Path(p).resolve()) for p in getattr(loaded, "__path__", [])] != [str(folder)]:
         raise ImportError(f"another benches package is already imported: {loaded!r}")
-    cases: Mapping[str, Case] = importlib.import_module("benches.cases").CASES
+    cases: Mapping[str, Case] = importlib.import_module(f"{package}.cases").CASES
     return cases
 
 
