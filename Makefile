@@ -53,7 +53,7 @@ fmt: $(STAMP)  ## Format Rust and Python sources
 	$(VENV)/bin/ruff check --fix python tests benches
 
 bench: dev  ## Benchmarks: accelcore vs the NumPy reference (and pandas/polars for reading)
-	$(PY) -m accelcore bench
+	$(PY) -m benches
 
 clean:  ## Remove build output and the virtual environment
 	rm -rf $(VENV) target .pytest_cache .mypy_cache .ruff_cache .hypothesis

@@ -1,1 +1,1 @@
-"""Python-level benchmark cases of accelcore, run by ``accelcore bench``."""
+"""Python-level benchmark cases of accelcore: ``python -m benches`` (``make bench``) runs them."""

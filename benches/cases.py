@@ -1,4 +1,4 @@
-"""The benchmark cases, by name, in the order ``accelcore bench`` runs them."""
+"""The benchmark cases by name, in the order ``python -m benches`` runs them."""
 
 from __future__ import annotations
 

@@ -17,9 +17,14 @@ import json
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 from accelcore import simulate
-from accelcore.apps.bench import REPO, Context, Row, Table
+from accelcore.apps.bench import Context, Row, Table
+from benches.session_data import count_rows
+
+# The folder holding benches/: the children run ``python -m benches.memory`` there.
+ROOT = Path(__file__).resolve().parents[1]
 
 PEAK_TARGET_MB = 100.0
 
@@ -74,7 +79,7 @@ def child_session(path: str) -> dict[str, float]:
 def _in_child(*args: str) -> dict[str, float]:
     out = subprocess.run(
         [sys.executable, "-m", "benches.memory", *args],
-        cwd=REPO,
+        cwd=ROOT,
         capture_output=True,
         text=True,
         check=True,
@@ -121,7 +126,7 @@ def run(ctx: Context) -> list[Table]:
             f"load_session + calibrate, {log_h:g} h log on disk",
             r,
             r["wall_s"],
-            sum(1 for _ in log.open()) - 1,
+            count_rows(log),
             f"{log.stat().st_size / 1e6:.0f} MB of CSV read, hashed and calibrated in "
             f"{r['wall_s']:.2f} s",
         )

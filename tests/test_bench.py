@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import gc
+import json
+import sys
+import textwrap
+from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -96,3 +101,85 @@ def test_measure_restores_the_collector_when_the_call_raises(clock: FakeClock) -
     with pytest.raises(RuntimeError, match="boom"):
         bench.measure("x", fn, n=1, repeat=2, memory=False, warmup_s=0.0)
     assert gc.isenabled()
+
+
+# ---------------------------------------------------------------------- accelcore bench
+_CASES = """
+from accelcore.apps.bench import Context, Row, Table
+from benches.helper import LABEL
+
+
+def one(ctx: Context) -> list[Table]:
+    return [Table(LABEL, rows=[Row("x", 4, 1.0, 1.0, "samples", 4.0)], notes=[str(ctx.quick)])]
+
+
+CASES = {"one": one, "two": one}
+"""
+
+
+@pytest.fixture
+def benches_folder(tmp_path: Path) -> Iterator[Path]:
+    """A stand-in ``benches`` folder; the package it is imported as is forgotten afterwards."""
+    folder = tmp_path / "checkout" / "benches"
+    folder.mkdir(parents=True)
+    (folder / "__init__.py").write_text('"""Stand-in cases."""\n')
+    (folder / "helper.py").write_text('LABEL = "stand-in table"\n')
+    (folder / "cases.py").write_text(textwrap.dedent(_CASES))
+    saved = {k: v for k, v in sys.modules.items() if k == "benches" or k.startswith("benches.")}
+    for k in saved:
+        del sys.modules[k]
+    yield folder
+    for k in [k for k in sys.modules if k == "benches" or k.startswith("benches.")]:
+        del sys.modules[k]
+    sys.modules.update(saved)
+
+
+def test_accelcore_bench_runs_the_cases_of_the_folder_it_is_given(
+    benches_folder: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path_before = list(sys.path)
+    assert bench.main(["--benches", str(benches_folder), "--quick", "--cases", "two"]) == 0
+    assert sys.path == path_before  # the folder is imported by its path, sys.path untouched
+    out = capsys.readouterr().out
+    assert "== stand-in table" in out
+    saved = list((benches_folder / "results").glob("*.json"))
+    assert len(saved) == 1
+    record = json.loads(saved[0].read_text())
+    assert list(record["case_elapsed_s"]) == ["two"]
+    assert [t["title"] for t in record["tables"]] == ["stand-in table"]
+    assert record["tables"][0]["notes"] == ["True"]
+    assert record["tables"][0]["rows"][0]["rate_per_s"] == 4.0
+    assert not list(benches_folder.parent.glob("**/.*.tmp"))
+
+
+def test_accelcore_bench_default_is_benches_in_the_current_directory(
+    benches_folder: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(benches_folder.parent)
+    assert bench.main(["--output", "-"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("== stand-in table") == 2  # both cases, in order
+    assert not (benches_folder / "results").exists()
+
+
+def test_accelcore_bench_without_cases_exits_2(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert bench.main([]) == 2
+    err = capsys.readouterr().err
+    assert "not a benches folder" in err and "--benches DIR" in err
+    assert "benches" not in sys.modules or sys.modules["benches"].__file__ != str(tmp_path)
+
+
+def test_unknown_case_exits_2(benches_folder: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert bench.main(["--benches", str(benches_folder), "--cases", "one,three"]) == 2
+    assert "unknown case(s) ['three']" in capsys.readouterr().err
+    assert not (benches_folder / "results").exists()
+
+
+def test_the_package_never_names_the_source_tree() -> None:
+    # The harness is installed; the cases import it, it does not import them.
+    source = Path(bench.__file__).read_text()
+    assert "sys.path" not in source.replace("``sys.path``", "")
+    assert "parents[" not in source

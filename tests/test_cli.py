@@ -273,6 +273,16 @@ def test_unwritable_json_target_is_a_data_error(
 
 
 # ---------------------------------------------------------------------- compensate
+def test_compensate_into_a_missing_folder_is_a_data_error(
+    sim: simulate.SimulatedSession, cal_file: Path, tmp_path: Path
+) -> None:
+    target = tmp_path / "no-such-dir" / "out.csv"
+    status, _, err = run_main("compensate", cal_file, sim.path / "z_pos.csv", "-o", target)
+    assert status == 1
+    assert "no-such-dir" in err and err.count("\n") == 1
+    assert not target.parent.exists()
+
+
 def test_compensate_round_trip_gives_gravity(
     sim: simulate.SimulatedSession, cal_file: Path, tmp_path: Path
 ) -> None:

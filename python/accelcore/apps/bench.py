@@ -1,11 +1,19 @@
-"""Benchmark runner: accelcore vs the NumPy reference, pandas and polars.
+"""Benchmark harness: measures cases, prints their tables and saves the results as JSON.
 
-``accelcore bench`` (or ``python -m accelcore.apps.bench``) runs the cases in the
-repository's ``benches/`` folder and prints one table per case. Every row of a
-table is measured in the same run on the same data: after an untimed warm-up,
-median of several repetitions (wall clock and the thread's CPU time), throughput, peak memory
-and the speed ratio to the case's baseline. Targets are reported, never
-asserted. Results are saved as JSON under ``benches/results/``.
+The cases (accelcore vs the NumPy reference, pandas and polars) live in the
+repository's ``benches/`` folder, not in the package; they import this harness
+(:class:`Context`, :class:`Table`, :class:`Row`, :func:`measure`), never the reverse.
+``make bench`` runs them as ``python -m benches``, which calls :func:`run`.
+Installed, ``accelcore bench`` (:func:`main`) runs the cases of a ``benches``
+folder named by ``--benches DIR`` (default: ``./benches`` in the current
+directory); it never looks for the source tree by itself and never touches
+``sys.path``.
+
+Every row of a table is measured in the same run on the same data: after an
+untimed warm-up, median of several repetitions (wall clock and the thread's CPU
+time), throughput, peak memory and the speed ratio to the case's baseline.
+Targets are reported, never asserted. Results are saved as JSON under the
+cases' ``results/`` folder (``benches/results/``).
 
 Peak memory is the growth of the process's peak resident set during one
 extra call after the warm-up (``/proc/self/clear_refs`` resets the peak, then
@@ -18,23 +26,42 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import gc
-import importlib
+import importlib.util
 import json
 import os
 import platform
 import socket
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+import accelcore
+from accelcore.files import atomic_write
+
+__all__ = [
+    "Case",
+    "Context",
+    "Row",
+    "Table",
+    "format_table",
+    "load_cases",
+    "machine",
+    "main",
+    "measure",
+    "run",
+    "warm_up",
+]
+
 # polars reads with every core by default; the targets are per core.
 os.environ.setdefault("POLARS_MAX_THREADS", "1")
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 @dataclass
@@ -257,17 +284,15 @@ def proc_loadavg() -> str | None:
         return None
 
 
-def git_state() -> dict[str, Any] | None:
-    """Commit of the source tree and whether it had uncommitted changes (None outside git)."""
-    import subprocess
-
+def git_state(folder: Path) -> dict[str, Any] | None:
+    """Commit of the checkout holding ``folder`` and its uncommitted files (None outside git)."""
     try:
         head = subprocess.run(
-            ["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True, check=True
+            ["git", "rev-parse", "HEAD"], cwd=folder, capture_output=True, text=True, check=True
         ).stdout.strip()
         dirty = subprocess.run(
             ["git", "status", "--porcelain", "--untracked-files=no"],
-            cwd=REPO,
+            cwd=folder,
             capture_output=True,
             text=True,
             check=True,
@@ -277,8 +302,8 @@ def git_state() -> dict[str, Any] | None:
     return {"commit": head, "modified": [line[3:] for line in dirty if line.strip()]}
 
 
-def machine() -> dict[str, Any]:
-    """CPU model, core count, load and library versions."""
+def machine(folder: Path) -> dict[str, Any]:
+    """CPU model, core count, load, library versions and the git state of ``folder``."""
     cpu = platform.processor() or "unknown"
     try:
         with open("/proc/cpuinfo") as f:
@@ -288,10 +313,6 @@ def machine() -> dict[str, Any]:
                     break
     except OSError:
         pass
-    import numpy as np
-
-    import accelcore
-
     versions: dict[str, str | None] = {
         "python": platform.python_version(),
         "numpy": np.__version__,
@@ -308,67 +329,137 @@ def machine() -> dict[str, Any]:
         "proc_loadavg": proc_loadavg(),
         "platform": platform.platform(),
         "accelcore": accelcore.__version__,
-        "git": git_state(),
+        "git": git_state(folder),
         **versions,
     }
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="accelcore bench", description="accelcore vs NumPy reference, pandas and polars"
-    )
+Case = Callable[[Context], list[Table]]
+"""A benchmark case: takes the shared options, returns its measured tables."""
+
+
+def build_parser(
+    prog: str = "accelcore bench", *, benches_option: bool = True
+) -> argparse.ArgumentParser:
+    """Return the options of a benchmark run (``--benches DIR`` only for ``accelcore bench``).
+
+    Parameters
+    ----------
+    prog : str
+        Program name shown in the help.
+    benches_option : bool, default True
+        Offer ``--benches DIR`` (the installed command); ``python -m benches``
+        knows its own folder.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+    """
+    if benches_option:
+        description = (
+            "Run the benchmark cases (accelcore vs NumPy reference, pandas and polars) of a "
+            "source checkout's benches/ folder with the installed harness. The cases are not "
+            "installed with the package: pass --benches DIR, or run from the checkout's root "
+            "(default ./benches). 'make bench' is the same as 'python -m benches'."
+        )
+    else:
+        description = "accelcore vs NumPy reference, pandas and polars"
+    p = argparse.ArgumentParser(prog=prog, description=description)
+    if benches_option:
+        p.add_argument(
+            "--benches",
+            type=Path,
+            default=Path("benches"),
+            metavar="DIR",
+            help="the folder of benchmark cases, named benches and holding cases.py "
+            "(default: ./benches)",
+        )
     p.add_argument("--large", action="store_true", help="add 1e8-sample kernels, 1e9 memory run")
     p.add_argument("--quick", action="store_true", help="small sizes, one repetition (smoke)")
     p.add_argument(
         "--cases",
-        default="kernels,reading,end_to_end,diagnosis,bulk,memory",
-        help="comma-separated subset of: kernels, reading, end_to_end, diagnosis, bulk, memory",
+        default=None,
+        help="comma-separated subset of the cases (default: all, in order; "
+        "in a checkout: kernels, reading, end_to_end, diagnosis, bulk, memory)",
     )
     p.add_argument(
         "--output",
         type=Path,
         default=None,
-        help="JSON file (default benches/results/<date>-<host>.json; '-' for none)",
+        help="JSON file (default <benches>/results/<date>-<host>.json; '-' for none)",
     )
     p.add_argument("--workdir", type=Path, default=None, help="where to write generated logs")
     return p
 
 
-def _default_output() -> Path:
-    """``benches/results/<date>-<host>.json``; ``<date>-<host>-<HHMMSS>.json`` if taken."""
+def _default_output(folder: Path) -> Path:
+    """``folder/<date>-<host>.json``; ``<date>-<host>-<HHMMSS>.json`` if taken."""
     now = dt.datetime.now()
-    folder, host = REPO / "benches" / "results", socket.gethostname()
-    out = folder / f"{now.date().isoformat()}-{host}.json"
+    out = folder / f"{now.date().isoformat()}-{socket.gethostname()}.json"
     return out if not out.exists() else out.with_name(f"{out.stem}-{now:%H%M%S}.json")
 
 
-def _load_cases() -> Any:
-    folder = REPO / "benches"
-    if not (folder / "cases.py").is_file():
-        raise FileNotFoundError(
-            f"{folder} not found: the benchmark cases live in the source repository"
-        )
-    if str(REPO) not in sys.path:
-        sys.path.insert(0, str(REPO))
-    return importlib.import_module("benches.cases")
+def _record(
+    argv: Sequence[str],
+    info: dict[str, Any],
+    elapsed: float,
+    case_elapsed: Mapping[str, float],
+    tables: Sequence[Table],
+) -> dict[str, Any]:
+    return {
+        "date": dt.datetime.now().isoformat(timespec="seconds"),
+        "argv": list(argv),
+        "warmup_s": WARMUP_S,
+        "machine": info,
+        "elapsed_s": elapsed,
+        "case_elapsed_s": dict(case_elapsed),
+        "tables": [
+            {
+                "title": t.title,
+                "notes": t.notes,
+                "rows": [
+                    {**asdict(r), "rate_per_s": r.rate, "rate_per_cpu_s": r.cpu_rate}
+                    for r in t.rows
+                ],
+            }
+            for t in tables
+        ],
+    }
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the benchmark cases, print the tables and save the JSON results."""
-    args = _parser().parse_args(list(argv) if argv is not None else None)
-    try:
-        cases = _load_cases()
-    except (FileNotFoundError, ImportError) as exc:
-        print(f"accelcore bench: {exc}", file=sys.stderr)
-        return 2
-    import tempfile
+def run(
+    cases: Mapping[str, Case],
+    args: argparse.Namespace,
+    *,
+    folder: Path,
+    argv: Sequence[str] = (),
+) -> int:
+    """Run the chosen cases, print one table per case and save the JSON results.
 
-    wanted = [c.strip() for c in args.cases.split(",") if c.strip()]
-    unknown = [c for c in wanted if c not in cases.CASES]
+    Parameters
+    ----------
+    cases : mapping of str to callable
+        The cases by name, in the order they run by default.
+    args : argparse.Namespace
+        Options parsed by :func:`build_parser`.
+    folder : pathlib.Path
+        The cases' folder: results go to ``folder/results/`` by default and the
+        git state of its checkout is recorded.
+    argv : sequence of str
+        The arguments, recorded in the JSON.
+
+    Returns
+    -------
+    int
+        0, or 2 when a case named in ``--cases`` does not exist.
+    """
+    wanted = list(cases) if args.cases is None else [c.strip() for c in args.cases.split(",")]
+    wanted = [c for c in wanted if c]
+    unknown = [c for c in wanted if c not in cases]
     if unknown:
-        print(f"accelcore bench: unknown case(s) {unknown}; have {list(cases.CASES)}")
+        print(f"accelcore bench: unknown case(s) {unknown}; have {list(cases)}", file=sys.stderr)
         return 2
-    info = machine()
+    info = machine(folder)
     print(
         f"accelcore {info['accelcore']} | {info['cpu_model']} | {info['cores']} cores | "
         f"load {info['load_average'][0]:.2f} | python {info['python']} numpy {info['numpy']} "
@@ -382,7 +473,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         ctx = Context(large=args.large, quick=args.quick, workdir=args.workdir or Path(tmp))
         for case in wanted:
             t0 = time.perf_counter()
-            for table in cases.CASES[case](ctx):
+            for table in cases[case](ctx):
                 tables.append(table)
                 print()
                 print(format_table(table), flush=True)
@@ -396,30 +487,87 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"at end {info['load_average_end'][0]:.2f} (1 min) on {info['cores']} cores"
     )
     if args.output is None or str(args.output) != "-":
-        out = args.output or _default_output()
-        out.parent.mkdir(parents=True, exist_ok=True)
-        record = {
-            "date": dt.datetime.now().isoformat(timespec="seconds"),
-            "argv": list(argv) if argv is not None else sys.argv[1:],
-            "warmup_s": WARMUP_S,
-            "machine": info,
-            "elapsed_s": elapsed,
-            "case_elapsed_s": case_elapsed,
-            "tables": [
-                {
-                    "title": t.title,
-                    "notes": t.notes,
-                    "rows": [
-                        {**asdict(r), "rate_per_s": r.rate, "rate_per_cpu_s": r.cpu_rate}
-                        for r in t.rows
-                    ],
-                }
-                for t in tables
-            ],
-        }
-        out.write_text(json.dumps(record, indent=1) + "\n")
+        out = args.output or _default_output(folder / "results")
+        record = _record(argv, info, elapsed, case_elapsed, tables)
+        atomic_write(out, json.dumps(record, indent=1) + "\n")
         print(f"results: {out}")
     return 0
+
+
+def load_cases(folder: Path) -> Mapping[str, Case]:
+    """Import the ``benches`` package at ``folder`` by its path and return its ``CASES``.
+
+    The folder is named explicitly (nothing is searched and ``sys.path`` is not
+    changed); it is registered as the package ``benches``, since the cases
+    import each other as ``benches.*`` (and the memory case starts
+    ``python -m benches.memory`` in the folder's parent).
+
+    Parameters
+    ----------
+    folder : pathlib.Path
+        A folder named ``benches`` holding ``__init__.py`` and ``cases.py``.
+
+    Returns
+    -------
+    mapping of str to callable
+        ``benches.cases.CASES``.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``folder`` is not such a folder.
+    ImportError
+        Another ``benches`` package is already imported, or the cases fail to import.
+    """
+    folder = folder.resolve()
+    init = folder / "__init__.py"
+    if folder.name != "benches" or not init.is_file() or not (folder / "cases.py").is_file():
+        raise FileNotFoundError(
+            f"{folder}: not a benches folder (a package named benches holding cases.py); "
+            "run from a source checkout's root or pass --benches DIR"
+        )
+    package = folder.name  # the cases' package is the folder named on the command line
+    loaded = sys.modules.get(package)
+    if loaded is None:
+        spec = importlib.util.spec_from_file_location(
+            package, init, submodule_search_locations=[str(folder)]
+        )
+        if spec is None or spec.loader is None:  # pragma: no cover - a .py file always has one
+            raise ImportError(f"{init}: cannot be imported")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[package] = module
+        try:
+            spec.loader.exec_module(module)
+        except BaseException:
+            del sys.modules[package]
+            raise
+    elif [str(Path(p).resolve()) for p in getattr(loaded, "__path__", [])] != [str(folder)]:
+        raise ImportError(f"another benches package is already imported: {loaded!r}")
+    cases: Mapping[str, Case] = importlib.import_module(f"{package}.cases").CASES
+    return cases
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``accelcore bench``: run the cases of the ``benches`` folder given by ``--benches``.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0 on success, 2 when the folder holds no cases or a case is unknown.
+    """
+    arguments = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(arguments)
+    try:
+        cases = load_cases(args.benches)
+    except (FileNotFoundError, ImportError) as exc:
+        print(f"accelcore bench: {exc}", file=sys.stderr)
+        return 2
+    return run(cases, args, folder=args.benches.resolve(), argv=arguments)
 
 
 if __name__ == "__main__":

@@ -9,10 +9,11 @@ and ``OUT/failures.csv`` (session, stage, reason).
 Guarantees
 ----------
 - One bad session never stops the batch: it lands in ``failures.csv``.
-- Nothing is lost on a crash: every file is written to a temporary name and
-  renamed; a session's ``fleet_rows.json`` is written last and marks it done. A
-  rerun skips sessions whose outputs are newer than their inputs and redoes the
-  rest, so ``kill -9`` then a rerun ends with the same fleet table.
+- Nothing is lost on a crash: every file is written with
+  :func:`accelcore.files.atomic_write` (temporary name, fsync, rename); a
+  session's ``fleet_rows.json`` is written last and marks it done. A rerun skips
+  sessions whose outputs are newer than their inputs and redoes the rest, so
+  ``kill -9`` then a rerun ends with the same fleet table.
 - Results are deterministic: sessions are processed independently and the
   tables are sorted by session path, so ``--jobs`` does not change a byte.
 
@@ -32,21 +33,32 @@ import math
 import os
 import sys
 import time
+import tomllib
 import traceback
 from collections.abc import Callable, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
 import pandas as pd
 
-from accelcore._accelcore import __version__
+from accelcore import datasheets
+from accelcore._accelcore import __version__, merge_runs, plan_split, read_run_range
+from accelcore.diagnosis import Diagnosis
+from accelcore.diagnosis import diagnose as run_diagnosis
 from accelcore.errors import AccelcoreError
+from accelcore.files import atomic_write
+from accelcore.fitting.calibrate import calibrate
 from accelcore.input.cache import CacheSetting
+from accelcore.input.session import load_session
+from accelcore.outputs.report.fleet import FAILURE_COLUMNS, FLEET_COLUMNS
+from accelcore.result.calibration import Calibration
 
 __all__ = [
     "BULK_SCHEMA",
+    "FAILURE_COLUMNS",
+    "FLEET_COLUMNS",
     "BulkResult",
     "bulk",
     "find_sessions",
@@ -55,30 +67,6 @@ __all__ = [
 ]
 
 BULK_SCHEMA = "accelcore-bulk/1"
-FLEET_COLUMNS = (
-    "session",
-    "serial",
-    "sensor",
-    "units",
-    "axis",
-    "zero_g_offset",
-    "zero_g_offset_se",
-    "sensitivity",
-    "sensitivity_se",
-    "offset_tc_mg_per_c",
-    "offset_tc_mg_per_c_se",
-    "sensitivity_tc_pct_per_c",
-    "sensitivity_tc_pct_per_c_se",
-    "zero_g_offset_in_spec",
-    "sensitivity_in_spec",
-    "offset_tc_in_spec",
-    "sensitivity_tc_in_spec",
-    "not_identified",
-    "effects",
-    "heldout_rms_mg_before",
-    "heldout_rms_mg_after",
-)
-FAILURE_COLUMNS = ("session", "stage", "reason")
 
 
 def find_sessions(archive: str | Path) -> list[str]:
@@ -92,24 +80,8 @@ def find_sessions(archive: str | Path) -> list[str]:
     return found
 
 
-def _atomic_write_bytes(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as fh:
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-
-
-def _atomic_write_text(path: Path, text: str) -> None:
-    _atomic_write_bytes(path, text.encode("utf-8"))
-
-
 def _input_mtime(session_dir: Path) -> float:
     """Newest modification time of session.toml and every file it names."""
-    import tomllib
-
     newest = (session_dir / "session.toml").stat().st_mtime
     try:
         meta = tomllib.loads((session_dir / "session.toml").read_text())
@@ -132,9 +104,7 @@ class SessionOutcome:
     reused: bool = False
 
 
-def _fleet_rows(rel: str, cal: Any, diag: Any) -> list[dict[str, Any]]:
-    from accelcore import datasheets
-
+def _fleet_rows(rel: str, cal: Calibration, diag: Diagnosis | None) -> list[dict[str, Any]]:
     sheet = None
     if cal.sensor:
         try:
@@ -217,8 +187,6 @@ def process_session(
     -------
     SessionOutcome
     """
-    import accelcore
-
     src = Path(archive) / rel
     dst = Path(out) / rel
     marker = dst / "fleet_rows.json"
@@ -231,23 +199,21 @@ def process_session(
         pass  # unreadable marker: redo the session
     stage = "load"
     try:
-        session = accelcore.load_session(src, cache=cache)
+        session = load_session(src, cache=cache)
         stage = "calibrate"
-        cal = accelcore.calibrate(session)
+        cal = calibrate(session)
         dst.mkdir(parents=True, exist_ok=True)
         cal.save(dst / "calibration.json")
         diag = None
         if diagnose:
             stage = "diagnose"
-            from accelcore.diagnosis import diagnose as run_diagnosis
-
             diag = run_diagnosis(session, cal)
-            _atomic_write_text(
+            atomic_write(
                 dst / "diagnosis.json", json.dumps(diag.to_dict(), indent=1, sort_keys=True)
             )
         stage = "report"
         rows = _fleet_rows(rel, cal, diag)
-        _atomic_write_text(
+        atomic_write(
             marker,
             json.dumps(
                 {"schema": BULK_SCHEMA, "accelcore_version": __version__, "rows": rows},
@@ -347,17 +313,17 @@ def _table_bytes(frame: pd.DataFrame, columns: Sequence[str]) -> bytes:
 
 
 def _write_tables(out: Path, fleet: pd.DataFrame, failures: pd.DataFrame) -> None:
-    _atomic_write_bytes(out / "fleet.csv", _table_bytes(fleet, FLEET_COLUMNS))
-    _atomic_write_bytes(out / "failures.csv", _table_bytes(failures, FAILURE_COLUMNS))
+    atomic_write(out / "fleet.csv", _table_bytes(fleet, FLEET_COLUMNS))
+    atomic_write(out / "failures.csv", _table_bytes(failures, FAILURE_COLUMNS))
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
-    except ImportError as exc:  # pragma: no cover - pyarrow is a declared dependency of bulk
+    except ImportError as exc:  # pragma: no cover - optional: the [parquet] extra
         raise ImportError("fleet.parquet needs pyarrow: pip install accelcore[parquet]") from exc
     table = pa.Table.from_pandas(fleet, preserve_index=False)
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)
-    _atomic_write_bytes(out / "fleet.parquet", sink.getvalue().to_pybytes())
+    atomic_write(out / "fleet.parquet", sink.getvalue().to_pybytes())
 
 
 def _run_local(
@@ -552,10 +518,6 @@ def read_run_split(
     -------
     accelcore._accelcore.RunData
     """
-    from concurrent.futures import ThreadPoolExecutor
-
-    from accelcore._accelcore import merge_runs, plan_split, read_run_range
-
     layout: dict[str, Any] = {
         "delimiter": delimiter,
         "time_column": time_column,

@@ -23,6 +23,14 @@ import tomllib
 from pathlib import Path
 from typing import Any, Final, TextIO
 
+from accelcore import simulate
+from accelcore._accelcore import __version__
+from accelcore.files import atomic_write
+from accelcore.fitting.calibrate import calibrate
+from accelcore.input.session import load_session
+from accelcore.outputs.tables import datasheet_section, summary_text
+from accelcore.result.calibration import Calibration
+
 __all__ = ["DEMO_PARAMETERS", "default_directory", "ensure_session", "run"]
 
 #: Everything that determines the demo session's files.
@@ -72,7 +80,9 @@ def ensure_session(
     """Generate the demo session unless an identical one is already there.
 
     The session is written to a temporary sibling folder and renamed into
-    place, so an interrupted run never leaves a half-written session behind.
+    place, so an interrupted run never leaves a half-written session behind (a
+    folder: :func:`accelcore.files.atomic_write` is for single files; the stamp
+    ``demo.json`` inside it, which marks the session complete, is written with it).
 
     Parameters
     ----------
@@ -91,8 +101,6 @@ def ensure_session(
     FileExistsError
         The folder exists, is not empty and is not a demo session.
     """
-    from accelcore import simulate
-
     folder = Path(directory) if directory is not None else default_directory()
     if not regenerate and _stamp_matches(folder):
         return folder, None
@@ -118,7 +126,7 @@ def ensure_session(
             serial=str(p["serial"]),
             overwrite=True,
         )
-        (tmp / _STAMP).write_text(json.dumps(DEMO_PARAMETERS, indent=1) + "\n", encoding="utf-8")
+        atomic_write(tmp / _STAMP, json.dumps(DEMO_PARAMETERS, indent=1) + "\n")
         if folder.exists():
             shutil.rmtree(folder)
         os.replace(tmp, folder)
@@ -136,7 +144,7 @@ def _truth(folder: Path) -> dict[str, Any] | None:
         return None
 
 
-def _tc_table(joint: Any, paper: Any, truth: dict[str, Any] | None) -> str:
+def _tc_table(joint: Calibration, paper: Calibration, truth: dict[str, Any] | None) -> str:
     lines = [
         "Temperature coefficients: recovered vs true (± one standard error)",
         f"  {'axis':<5}{'parameter':<17}{'true':>9}{'joint':>22}{'paper':>22}",
@@ -182,9 +190,6 @@ def run(
     int
         0.
     """
-    import accelcore
-    from accelcore.outputs.tables import datasheet_section, summary_text
-
     stream = out or sys.stdout
     folder, took = ensure_session(directory, regenerate=regenerate)
     p = DEMO_PARAMETERS
@@ -194,7 +199,7 @@ def run(
     except ValueError:
         shown = folder
     print(
-        f"accelcore {accelcore.__version__} demo: thermal calibration of a simulated {p['sensor']}",
+        f"accelcore {__version__} demo: thermal calibration of a simulated {p['sensor']}",
         file=stream,
     )
     print(
@@ -202,13 +207,15 @@ def run(
         f"{p['duration_h']:g} h sweeps -2→65 °C at 20 Hz, the paper's measured part as truth)",
         file=stream,
     )
-    session = accelcore.load_session(folder, cache=cache)
-    joint = accelcore.calibrate(session, "joint")
-    paper = accelcore.calibrate(session, "paper")
+    session = load_session(folder, cache=cache)
+    joint = calibrate(session, "joint")
+    paper = calibrate(session, "paper")
     print(f"\n{summary_text(joint)}", file=stream)
     text, _ = datasheet_section(joint)
     print(f"\n{text}", file=stream)
     print(f"\n{_tc_table(joint, paper, _truth(folder))}", file=stream)
+    # Looked up when the demo runs, so an installation without the diagnosis
+    # still prints the calibration.
     try:
         diagnosis = importlib.import_module("accelcore.diagnosis")
     except ImportError:

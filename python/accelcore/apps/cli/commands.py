@@ -1,0 +1,380 @@
+"""The subcommands of the command line: one ``cmd_*(args, out) -> status`` per command.
+
+Each takes the parsed options and the stream for results, and returns the exit
+status; a data problem raises :class:`CliDataError` (status 1), a usage problem
+found after parsing :class:`UsageError` (status 2).
+
+Part of the applications room: may import every other room.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import importlib
+import sys
+import tomllib
+import warnings
+from collections.abc import Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+import accelcore
+from accelcore import datasheets, simulate
+from accelcore.apps import demo
+from accelcore.apps.bulk import bulk
+from accelcore.apps.cli.documents import json_document, require_folder, write_json
+from accelcore.constants import DEFAULT_COLUMNS as _DEFAULT_COLUMNS
+from accelcore.constants import DELIMITERS as _DELIMITERS
+from accelcore.constants import TIME_UNITS as _TIME_UNITS
+from accelcore.errors import AccelcoreError, TemperatureRangeWarning
+from accelcore.files import atomic_open
+from accelcore.input.quality import check_session
+from accelcore.input.session import Session
+from accelcore.outputs.report import fleet_report, is_bulk_output, session_report
+from accelcore.outputs.tables import datasheet_section, summary_text
+from accelcore.result.calibration import Calibration
+
+__all__ = [
+    "CliDataError",
+    "UsageError",
+    "cmd_bench",
+    "cmd_bulk",
+    "cmd_calibrate",
+    "cmd_compensate",
+    "cmd_demo",
+    "cmd_diagnose",
+    "cmd_report",
+    "cmd_simulate",
+]
+
+_COLUMN_KEYS = ("time", "temperature", "x", "y", "z")
+# Bases whose value at a sample depends on earlier samples (see accelcore.model).
+_STATEFUL_PREFIXES = ("lag(", "dTdt", "elapsed_h")
+
+
+class CliDataError(Exception):
+    """A data problem the command line found itself (exit status 1)."""
+
+
+class UsageError(Exception):
+    """A usage problem found after parsing (exit status 2)."""
+
+
+def _check_quality(session: Session) -> list[dict[str, Any]]:
+    """Run the data-quality checks; each finding is also a warning printed on stderr."""
+    return [dataclasses.asdict(issue) for issue in check_session(session, warn=True)]
+
+
+def cmd_calibrate(args: argparse.Namespace, out: TextIO) -> int:
+    """``accelcore calibrate``: summary, datasheet comparison, ``--save`` and ``--json``."""
+    session = accelcore.load_session(args.session, cache=not args.no_cache)
+    quality = _check_quality(session)
+    cal = accelcore.calibrate(
+        session, args.method, t_ref_c=args.t_ref, window_c=(args.window[0], args.window[1])
+    )
+    text, records = datasheet_section(cal)
+    if args.save:
+        cal.save(args.save)
+    if args.json:
+        summary = cal.summary().reset_index().to_dict(orient="records")
+        result = {
+            "session": str(args.session),
+            "saved_to": None if args.save is None else str(args.save),
+            "summary": summary,
+            "datasheet": records,
+            "calibration": cal.to_dict(),
+            "quality": quality,
+        }
+        write_json(args.json, json_document("calibrate", result), out)
+    if args.json != "-":
+        print(summary_text(cal), file=out)
+        print(file=out)
+        print(text, file=out)
+        if args.save:
+            print(f"\ncalibration saved to {args.save}", file=out)
+    return 0
+
+
+def _session_format(folder: str) -> dict[str, Any]:
+    path = Path(folder) / "session.toml"
+    try:
+        with open(path, "rb") as fh:
+            meta = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise CliDataError(f"{path}: not valid TOML: {exc}") from exc
+    return {
+        "delimiter": meta.get("delimiter", ","),
+        "time_unit": meta.get("time_unit", "s"),
+        "columns": dict(meta.get("columns", {})),
+    }
+
+
+def _parse_column_options(items: Sequence[str]) -> dict[str, str]:
+    columns: dict[str, str] = {}
+    for item in items:
+        key, sep, name = item.partition("=")
+        if not sep or key not in _COLUMN_KEYS or not name:
+            raise UsageError(
+                f"--column expects KEY=NAME with KEY one of {', '.join(_COLUMN_KEYS)}, got {item!r}"
+            )
+        columns[key] = name
+    return columns
+
+
+def _compensate_chunks(
+    cal: Calibration,
+    chunks: Iterator[pd.DataFrame],
+    names: Mapping[str, str],
+    time_scale: float,
+    extra_names: Sequence[str],
+) -> Iterator[tuple[pd.DataFrame, NDArray[np.float64], int]]:
+    """Yield per chunk: the input frame, acceleration in g, and samples outside the range."""
+    comp = cal.compensator()
+    for frame in chunks:
+        before = comp.n_out_of_range
+        with warnings.catch_warnings():
+            # The command reports the total once at the end instead.
+            warnings.simplefilter("ignore", TemperatureRangeWarning)
+            g = comp.push(
+                frame[[names["x"], names["y"], names["z"]]].to_numpy(dtype=np.float64),
+                frame[names["temperature"]].to_numpy(dtype=np.float64),
+                frame[names["time"]].to_numpy(dtype=np.float64) * time_scale,
+                {k: frame[k].to_numpy(dtype=np.float64) for k in extra_names},
+            )
+        yield frame, g, comp.n_out_of_range - before
+
+
+def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
+    """``accelcore compensate``: a raw log of any size into acceleration in g, in chunks."""
+    fmt: dict[str, Any] = {"delimiter": ",", "time_unit": "s", "columns": {}}
+    if args.session:
+        fmt = _session_format(args.session)
+    if args.delimiter is not None:
+        fmt["delimiter"] = args.delimiter
+    if args.time_unit is not None:
+        fmt["time_unit"] = args.time_unit
+    fmt["columns"].update(_parse_column_options(args.column))
+    if fmt["delimiter"] not in _DELIMITERS:
+        raise UsageError(f"delimiter must be ',', '\\t' or ';', got {fmt['delimiter']!r}")
+    if fmt["time_unit"] not in _TIME_UNITS:
+        raise UsageError(f"time unit must be one of {', '.join(_TIME_UNITS)}")
+    if args.chunk_rows < 1:
+        raise UsageError("--chunk-rows must be >= 1")
+    names = {**_DEFAULT_COLUMNS, **fmt["columns"]}
+    cal = Calibration.load(args.calibration)
+    extra_names = sorted(
+        {
+            t.basis[len("extra:") :]
+            for m in cal.axes.values()
+            for t in m.terms
+            if t.basis.startswith("extra:")
+        }
+    )
+    needed = [names[k] for k in _COLUMN_KEYS] + extra_names
+    source = Path(args.input)
+    try:
+        header = pd.read_csv(source, sep=_DELIMITERS[fmt["delimiter"]], nrows=0)
+    except pd.errors.EmptyDataError as exc:
+        raise CliDataError(f"{source}: empty file, no header row") from exc
+    missing = [c for c in needed if c not in header.columns]
+    if missing:
+        raise CliDataError(
+            f"{source}: missing column(s) {', '.join(missing)}; found {', '.join(header.columns)} "
+            "(name them with --column KEY=NAME or --session)"
+        )
+    target = require_folder(args.output)
+    reader = pd.read_csv(
+        source,
+        sep=_DELIMITERS[fmt["delimiter"]],
+        usecols=needed,
+        dtype=dict.fromkeys(needed, np.float64),
+        chunksize=args.chunk_rows,
+    )
+    n_rows = n_out_of_range = n_nan = 0
+    out_names = [names["time"], names["temperature"], "x_g", "y_g", "z_g"]
+    # Written chunk by chunk (the log may not fit in memory), replaced atomically at the end.
+    with reader, atomic_open(target) as fh:
+        fh.write((",".join(out_names) + "\n").encode("utf-8"))
+        try:
+            for frame, g, n_out in _compensate_chunks(
+                cal, iter(reader), names, _TIME_UNITS[fmt["time_unit"]], extra_names
+            ):
+                block = np.column_stack(
+                    [frame[names["time"]].to_numpy(), frame[names["temperature"]].to_numpy(), g]
+                )
+                np.savetxt(fh, block, delimiter=",", fmt=["%.10g", "%.6g"] + ["%.7f"] * 3)
+                n_rows += len(frame)
+                n_out_of_range += n_out
+                n_nan += int(np.count_nonzero(~np.isfinite(g).all(axis=1)))
+        except ValueError as exc:
+            if isinstance(exc, AccelcoreError):
+                raise
+            raise CliDataError(f"{source}: {exc}") from exc
+    print(f"compensated {n_rows} rows of {source} into {target} (columns x_g, y_g, z_g)", file=out)
+    if n_nan:
+        print(f"warning: {n_nan} rows had non-finite input and are NaN", file=sys.stderr)
+    if n_out_of_range:
+        lo, hi = cal.temperature_range_c
+        print(
+            f"warning: {n_out_of_range} rows lie outside the calibrated range {lo:.2f}…{hi:.2f} °C;"
+            " the model is extrapolated there, not clamped",
+            file=sys.stderr,
+        )
+    return 0
+
+
+def cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
+    """``accelcore diagnose``: calibrate, diagnose, print the table or write ``--json``."""
+    # Looked up when the command runs, so an installation (or a test) without the
+    # diagnosis gets a usage error instead of a failed import of the whole CLI.
+    try:
+        diagnosis = importlib.import_module("accelcore.diagnosis")
+    except ImportError as exc:
+        raise UsageError(f"diagnosis is not available in this installation ({exc})") from exc
+    session = accelcore.load_session(args.session, cache=not args.no_cache)
+    quality = _check_quality(session)
+    result = diagnosis.diagnose(session)
+    if args.json:
+        body = {
+            "session": str(args.session),
+            "diagnosis": result.to_dict(),
+            "quality": quality,
+        }
+        write_json(args.json, json_document("diagnose", body), out)
+    if args.json != "-":
+        print(result.text(), file=out)
+    return 0
+
+
+def cmd_bulk(args: argparse.Namespace, out: TextIO) -> int:
+    """``accelcore bulk``: every session under an archive; status 1 when any failed."""
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError("--jobs must be >= 1")
+    result = bulk(
+        args.archive,
+        args.output,
+        jobs=args.jobs,
+        scheduler=args.scheduler,
+        diagnose=not args.no_diagnose,
+        force=args.force,
+        progress=not args.quiet,
+        cache=not args.no_cache,
+    )
+    n_failed = len(result.failures)
+    print(
+        f"{result.n_sessions} sessions ({result.n_reused} up to date, {n_failed} failed) in "
+        f"{result.elapsed_s:.1f} s: {Path(args.output) / 'fleet.csv'}, fleet.parquet, "
+        "failures.csv",
+        file=out,
+    )
+    for row in result.failures.itertuples():
+        print(f"accelcore bulk: failed: {row.session} ({row.stage}): {row.reason}", file=sys.stderr)
+    return 1 if n_failed else 0
+
+
+def cmd_report(args: argparse.Namespace, out: TextIO) -> int:
+    """``accelcore report``: the HTML page of a session or of a bulk output."""
+    try:
+        import matplotlib  # optional: the [plot] extra
+    except ImportError as exc:
+        raise UsageError(f"reports need matplotlib: pip install accelcore[plot] ({exc})") from exc
+    matplotlib.use("Agg")  # files only, never a window
+    src = Path(args.path)
+    try:
+        if is_bulk_output(src):
+            page = fleet_report(src, args.output)
+        elif (src / "session.toml").is_file():
+            if args.output is None:
+                raise UsageError("a session report needs -o DIR")
+            page = session_report(accelcore.load_session(src, cache=not args.no_cache), args.output)
+        elif not src.is_dir():
+            raise CliDataError(f"{src}: no such folder")
+        else:
+            raise CliDataError(
+                f"{src}: neither a session folder (session.toml) nor a bulk output (fleet.csv)"
+            )
+    except ValueError as exc:
+        if isinstance(exc, AccelcoreError):
+            raise
+        raise CliDataError(f"{src}: {exc}") from exc
+    print(f"report written to {page}", file=out)
+    return 0
+
+
+def cmd_simulate(args: argparse.Namespace, out: TextIO) -> int:
+    """``accelcore simulate``: a simulated session with known truth."""
+    known = datasheets.measured_names()
+    match = [n for n in known if _norm(n) == _norm(args.sensor)]
+    if not match:
+        raise UsageError(f"--sensor must be one of {', '.join(known)}, got {args.sensor!r}")
+    try:
+        sim = simulate.session(
+            args.out,
+            match[0],
+            seed=args.seed,
+            duration_h=args.duration_h,
+            soak_min=args.soak_min,
+            cool_back=args.cool_back,
+            orientations=args.orientations,
+            serial=args.serial,
+            overwrite=args.overwrite,
+        )
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, AccelcoreError):
+            raise
+        raise UsageError(str(exc)) from exc
+    t = sim.truth
+    result = {
+        "path": str(sim.path),
+        "sensor": sim.sensor,
+        "serial": sim.serial,
+        "units": sim.units,
+        "rate_hz": sim.rate_hz,
+        "seed": sim.seed,
+        "runs": [
+            {"file": r.file, "orientation": r.orientation, "rows": r.n_samples} for r in sim.runs
+        ],
+        "truth": {
+            "zero_g_offset": t.zero_g_offset,
+            "sensitivity_per_g": t.sensitivity_per_g,
+            "offset_tc_mg_per_c": t.offset_tc_mg_per_c,
+            "sensitivity_tc_pct_per_c": t.sensitivity_tc_pct_per_c,
+            "reference_temperature_c": t.reference_temperature_c,
+        },
+    }
+    if args.json:
+        write_json(args.json, json_document("simulate", result), out)
+    if args.json != "-":
+        rows = sum(r.n_samples for r in sim.runs)
+        print(
+            f"wrote {sim.path}: {sim.sensor}, {len(sim.runs)} runs "
+            f"({', '.join(r.orientation for r in sim.runs)}), {rows} rows, seed {sim.seed}",
+            file=out,
+        )
+    return 0
+
+
+def _norm(name: str) -> str:
+    return "".join(c for c in name.lower() if c.isalnum())
+
+
+def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
+    """``accelcore bench``: every argument goes to :func:`accelcore.apps.bench.main`."""
+    # Looked up when the command runs: the harness is not needed by any other command.
+    try:
+        bench = importlib.import_module("accelcore.apps.bench")
+    except ImportError as exc:
+        raise UsageError(f"the benchmarks are not available in this installation ({exc})") from exc
+    return int(bench.main(list(args.bench_args)))
+
+
+def cmd_demo(args: argparse.Namespace, out: TextIO) -> int:
+    """``accelcore demo``: generate (once), calibrate and print the example session."""
+    return int(
+        demo.run(directory=args.dir, regenerate=args.regenerate, out=out, cache=not args.no_cache)
+    )

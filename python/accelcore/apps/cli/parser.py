@@ -1,0 +1,216 @@
+"""The options of the command line: :func:`build_parser` and each command's example.
+
+Part of the applications room; each subcommand's handler is in
+:mod:`accelcore.apps.cli.commands`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Any
+
+from accelcore._accelcore import __version__
+from accelcore.apps.cli import commands
+from accelcore.constants import TIME_UNITS as _TIME_UNITS
+
+__all__ = ["DEFAULT_CHUNK_ROWS", "build_parser"]
+
+#: Rows read per chunk by ``accelcore compensate``.
+DEFAULT_CHUNK_ROWS = 100_000
+
+_EPILOGS = {
+    "calibrate": """example:
+  accelcore calibrate examples/adxl335-demo/generated --method joint --t-ref 25 \\
+      --window 0 60 --json cal-result.json --save adxl335.cal.json""",
+    "compensate": """example:
+  accelcore compensate adxl335.cal.json flight_log.csv -o flight_log_g.csv \\
+      --column temperature=die_temp --column time=t_ms --time-unit ms
+
+  The output holds the time and temperature columns, then x_g, y_g, z_g.""",
+    "diagnose": """example:
+  accelcore diagnose examples/adxl335-demo/generated --json diagnosis.json""",
+    "bulk": """example:
+  accelcore bulk /data/chamber-archive -o /data/calibrations --jobs 2
+  accelcore bulk /data/chamber-archive -o /data/calibrations --scheduler tcp://10.0.0.5:8786
+
+  Writes OUT/<session>/calibration.json and diagnosis.json, OUT/fleet.csv,
+  OUT/fleet.parquet and OUT/failures.csv. A rerun redoes only sessions whose
+  inputs changed (or that failed). Exit status 1 when any session failed.""",
+    "report": """example:
+  accelcore report examples/adxl335-demo/generated -o /tmp/adxl335-report
+  accelcore report /data/calibrations            (a bulk output: fleet report)
+
+  Writes DIR/index.html, one self-contained page (figures embedded). On a
+  session: datasheet comparison, the paper's Figures 4, 6 and 7, diagnosis
+  table and residual plots. On a bulk output (a folder holding fleet.csv):
+  temperature coefficients across parts against the datasheet limits, the
+  fleet table and the failures; -o defaults to that folder.""",
+    "simulate": """example:
+  accelcore simulate /tmp/adxl335-session --sensor ADXL335 --seed 7 --duration-h 2""",
+    "bench": """example:
+  accelcore bench                          (from a source checkout's root: ./benches)
+  accelcore bench --benches ~/src/accelcore/benches --quick --cases kernels
+
+  Runs the benchmark cases of a checkout's benches/ folder with the installed
+  harness (accelcore.apps.bench); the cases are not installed with the package.
+  Every argument after 'bench' goes to the harness: 'accelcore bench --help'.""",
+    "demo": """example:
+  accelcore demo                      (the bundled example, generated on first use)
+  accelcore demo --dir /tmp/demo      (somewhere else)""",
+}
+
+
+def _window(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
+    return value
+
+
+def _add_no_cache(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--no-cache",
+        action="store_true",
+        help="read every log again; neither use nor fill the run cache (docs/cache.md)",
+    )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the ``accelcore`` argument parser.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+    """
+    fmt = argparse.RawDescriptionHelpFormatter
+    parser = argparse.ArgumentParser(
+        prog="accelcore",
+        description="Thermal calibration of MEMS accelerometers (Rust-accelerated).",
+        epilog="Exit status: 0 success, 1 data error, 2 usage error. "
+        "'accelcore COMMAND --help' shows an example for each command.",
+    )
+    parser.add_argument("--version", action="version", version=f"accelcore {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    def add(name: str, help_text: str, **kw: Any) -> argparse.ArgumentParser:
+        return sub.add_parser(
+            name,
+            help=help_text,
+            description=help_text,
+            epilog=_EPILOGS[name],
+            formatter_class=fmt,
+            **kw,
+        )
+
+    p = add("calibrate", "calibrate a session: summary and datasheet comparison")
+    p.add_argument("session", metavar="SESSION", help="session folder (holding session.toml)")
+    p.add_argument("--method", choices=("joint", "paper"), default="joint", help="default: joint")
+    p.add_argument("--t-ref", type=_window, default=25.0, metavar="C", help="default: 25 °C")
+    p.add_argument(
+        "--window",
+        nargs=2,
+        type=_window,
+        default=(0.0, 60.0),
+        metavar=("LO", "HI"),
+        help="temperature window of the fit, °C (default: 0 60)",
+    )
+    p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
+    p.add_argument("--save", metavar="CAL.json", help="save the calibration file")
+    _add_no_cache(p)
+    p.set_defaults(func=commands.cmd_calibrate, data_path="session")
+
+    p = add("compensate", "turn a raw log into acceleration in g with a saved calibration")
+    p.add_argument("calibration", metavar="CAL.json", help="file written by calibrate --save")
+    p.add_argument("input", metavar="INPUT.csv", help="raw log (any size: read in chunks)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.csv", help="output CSV")
+    p.add_argument(
+        "--session",
+        metavar="SESSION",
+        help="take delimiter, time_unit and [columns] from this session's session.toml",
+    )
+    p.add_argument(
+        "--column",
+        action="append",
+        default=[],
+        metavar="KEY=NAME",
+        help="column name, KEY one of time, temperature, x, y, z (repeatable)",
+    )
+    p.add_argument("--delimiter", help="',' (default), '\\t' or ';'")
+    p.add_argument("--time-unit", choices=tuple(_TIME_UNITS), help="default: s")
+    p.add_argument("--chunk-rows", type=int, default=DEFAULT_CHUNK_ROWS, help=argparse.SUPPRESS)
+    p.set_defaults(func=commands.cmd_compensate, data_path="input")
+
+    p = add("diagnose", "calibrate and diagnose what the model still gets wrong")
+    p.add_argument("session", metavar="SESSION", help="session folder (holding session.toml)")
+    p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
+    _add_no_cache(p)
+    p.set_defaults(func=commands.cmd_diagnose, data_path="session")
+
+    p = add("bulk", "calibrate and diagnose every session under an archive folder")
+    p.add_argument("archive", metavar="ARCHIVE", help="folder searched for sessions (any depth)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="output folder")
+    p.add_argument("--jobs", type=int, metavar="N", help="worker processes (default: all cores)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster (tcp://HOST:PORT)")
+    p.add_argument("--no-diagnose", action="store_true", help="calibrate only")
+    p.add_argument("--force", action="store_true", help="redo sessions that are up to date")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    _add_no_cache(p)
+    p.set_defaults(func=commands.cmd_bulk, data_path="archive")
+
+    p = add("report", "write an HTML report of a session or of a bulk output")
+    p.add_argument(
+        "path", metavar="SESSION|OUT", help="session folder, or output folder of accelcore bulk"
+    )
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="DIR",
+        help="folder for index.html (required for a session; default for a bulk output: OUT)",
+    )
+    _add_no_cache(p)
+    p.set_defaults(func=commands.cmd_report, data_path="path")
+
+    p = add("simulate", "write a simulated session with known truth")
+    p.add_argument("out", metavar="OUT", help="session folder to create (must be empty)")
+    p.add_argument("--sensor", default="ADXL335", help="ADXL335 (default), ADXL327, ...")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--duration-h", type=float, default=2.0, help="hours per run (default 2)")
+    p.add_argument(
+        "--soak-min", type=float, default=10.0, help="soak at -2 °C before the ramp (default 10)"
+    )
+    p.add_argument("--cool-back", action="store_true", help="heat, then cool back")
+    p.add_argument(
+        "--orientations",
+        nargs="+",
+        default=["OX+", "OX-", "OY+", "OY-", "OZ+", "OZ-"],
+        metavar="O",
+        help="one run per entry (default: all six)",
+    )
+    p.add_argument("--serial", help="serial written to session.toml")
+    p.add_argument("--overwrite", action="store_true", help="write into a non-empty folder")
+    p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
+    p.set_defaults(func=commands.cmd_simulate, data_path="out")
+
+    p = add(
+        "bench",
+        "benchmarks: run the cases of a checkout's benches/ folder (--benches DIR)",
+        add_help=False,
+    )
+    p.add_argument("bench_args", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
+    p.set_defaults(func=commands.cmd_bench, data_path=None)
+
+    p = add("demo", "calibrate and diagnose the bundled example session")
+    p.add_argument(
+        "--dir",
+        metavar="DIR",
+        help="folder of the demo session (default: examples/adxl335-demo/generated in the "
+        "source tree if writable, else a cache folder); generated there if absent",
+    )
+    p.add_argument("--regenerate", action="store_true", help="generate the session again")
+    _add_no_cache(p)
+    p.set_defaults(func=commands.cmd_demo, data_path="dir")
+    return parser

@@ -1,0 +1,276 @@
+"""The HTML report of one session: :func:`session_report`.
+
+``OUT/index.html`` holds the datasheet comparison (the seed paper's Tables 3/4
+and 5/6, out-of-spec values highlighted), the paper's Figures 4, 6 and 7 for
+this part, the diagnosis table with residual plots before and after, the notes
+and what the data could not identify, and provenance (accelcore version,
+SHA-256 of every input file). Part of the outputs room.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from accelcore import datasheets
+from accelcore._accelcore import __version__
+from accelcore.constants import AXES
+from accelcore.diagnosis import Diagnosis, diagnose
+from accelcore.errors import AccelcoreError
+from accelcore.fitting.calibrate import calibrate
+from accelcore.input.session import Session, load_session
+from accelcore.outputs import plots
+from accelcore.outputs.report.html import (
+    escape,
+    figure_html,
+    guarded,
+    new_figure,
+    note,
+    page,
+    table,
+    write_page,
+)
+from accelcore.result.calibration import Calibration
+
+__all__ = ["session_report"]
+
+
+def _figure4(session: Session, cal: Calibration) -> str:
+    picks: list[tuple[str, str]] = []
+    orientations = set(session.orientations)
+    for a in AXES:
+        for sign in "+-":
+            o = f"O{a.upper()}{sign}"
+            if o in orientations:
+                picks.append((o, a))
+                break
+    fig = new_figure(4.6 * max(len(picks), 1), 4.0)
+    if picks:
+        axs = fig.subplots(1, len(picks), squeeze=False)[0]
+        for ax, (o, a) in zip(axs, picks, strict=True):
+            plots.plot_raw_vs_decimated(session, o, a, ax=ax, calibration=cal)
+    else:
+        plots.plot_raw_vs_decimated(session, ax=fig.subplots(), calibration=cal)
+    return figure_html(
+        fig,
+        "Figure 4: raw log, 2 Hz decimated blocks, temperature-bin means and the calibration, "
+        "one run per axis (the axis gravity acts on).",
+        "Figure 4: raw and decimated output against temperature",
+    )
+
+
+def _paired_figure(session: Session, cal: Calibration, kind: str) -> str:
+    names = [a for a in AXES if a in cal.axes]
+    fig = new_figure(4.2 * max(len(names), 1), 3.8)
+    axs = list(fig.subplots(1, max(len(names), 1), squeeze=False)[0])
+    if kind == "gain":
+        plots.plot_sensitivity_vs_temperature(session, cal, ax=axs, sensor_axes=names)
+        caption = "Figure 6: sensitivity (V+ − V−)/2 per temperature bin and the fitted line."
+        alt = "Figure 6: sensitivity against temperature"
+    else:
+        plots.plot_offset_vs_temperature(session, cal, ax=axs, sensor_axes=names)
+        caption = "Figure 7: zero-g offset (V+ + V−)/2 per temperature bin and the fitted line."
+        alt = "Figure 7: zero-g offset against temperature"
+    return figure_html(fig, caption, alt)
+
+
+def _residual_figure(diag: Diagnosis) -> str:
+    import matplotlib.pyplot as plt  # optional: the [plot] extra
+
+    fig = diag.plot()
+    try:
+        obs = diag._default_observable()
+        return figure_html(
+            fig,
+            "Residual error (mg) of the base model (left) and the diagnosed model (right), "
+            f"against temperature (top) and {obs} (bottom).",
+            "Residual plots before and after the diagnosis",
+        )
+    finally:
+        plt.close(fig)
+
+
+def _datasheet_tables(cal: Calibration) -> str:
+    if not cal.sensor:
+        return note("No datasheet comparison: the session names no sensor.")
+    try:
+        df = cal.compare_datasheet().reset_index()
+    except (datasheets.DatasheetError, KeyError, AccelcoreError) as exc:
+        return note(f"No datasheet comparison: {exc}")
+    parts = [
+        f"<p>Measured at T_ref = {escape(f'{cal.t_ref_c:g}')} °C against the {escape(cal.sensor)} "
+        "datasheet (layout of the paper's Tables 3/4 and 5/6). "
+        '<span class="muted">Highlighted: in spec (green), out of spec (red); '
+        "– where the datasheet gives no limit or the value is not identified.</span></p>"
+    ]
+    titles = {
+        "at T_ref": "Offset and sensitivity at T_ref (Tables 3/4)",
+        "temperature coefficients": "Temperature coefficients (Tables 5/6)",
+    }
+    for name, part in df.groupby("table", sort=False):
+        parts.append(f"<h3>{escape(titles.get(str(name), str(name)))}</h3>")
+        parts.append(
+            table(
+                [
+                    "parameter",
+                    "axis",
+                    "min",
+                    "typ",
+                    "max",
+                    "measured",
+                    "measured_se",
+                    "unit",
+                    "in_spec",
+                ],
+                part.to_dict(orient="records"),
+                numeric=["min", "typ", "max", "measured", "measured_se"],
+                spec=["in_spec"],
+                rename={"measured_se": "± se", "in_spec": "in spec"},
+                cls="datasheet",
+            )
+        )
+    return "\n".join(parts)
+
+
+def _summary_table(cal: Calibration) -> str:
+    df = cal.summary().reset_index()
+    cols = [str(c) for c in df.columns]
+    return table(cols, df.to_dict(orient="records"), numeric=cols[1:])
+
+
+def _diagnosis_section(diag: Diagnosis) -> str:
+    rep = diag.report()
+    cols = [
+        "step",
+        "effect",
+        "axes",
+        "variant",
+        "parameters",
+        "rms_in_after_mg",
+        "rms_out_before_mg",
+        "rms_out_after_mg",
+        "max_out_after_mg",
+        "cut_pct",
+    ] + [f"rms_out_{a}_after_mg" for a in AXES]
+    cols = [c for c in cols if c in rep.columns]
+    numeric = [c for c in cols if c.endswith("_mg") or c == "cut_pct"]
+    effects = ", ".join(diag.effects) or "none"
+    head = (
+        f"<p>Effects added: <b>{escape(effects)}</b>. Held-out folds: {escape(diag.scheme)} "
+        f"({escape(', '.join(diag.folds))}). Errors in mg, all axes pooled unless named; "
+        "step 0 is the base model.</p>"
+    )
+    return head + table(cols, rep.to_dict(orient="records"), numeric=numeric, cls="diagnosis")
+
+
+def _notes_section(cal: Calibration, diag: Diagnosis | None) -> str:
+    items: list[str] = []
+    if cal.not_identified:
+        items.append(f"Not identified (held at nominal or 0): {', '.join(cal.not_identified)}")
+    items += [f"Note: {n}" for n in cal.notes]
+    if diag is not None:
+        items += [f"Diagnosis warning: {w}" for w in diag.warnings]
+        for s in diag.unexplained:
+            items.append(
+                f"Unexplained structure: axis {s.axis} vs {s.observable}: "
+                f"{s.structure_rms_mg:.3f} mg rms (noise {s.noise_mg:.3f} mg, p {s.p_value:.1e})"
+                + (f"; {s.note}" if s.note else "")
+            )
+    if not items:
+        return "<p>Everything was identified; no notes.</p>"
+    return "<ul>" + "".join(f"<li>{escape(i)}</li>" for i in items) + "</ul>"
+
+
+def _provenance_section(session: Session, cal: Calibration) -> str:
+    prov = cal.provenance
+    hashes = prov.get("files_sha256") or {}
+    rows = [{"file": k, "sha256": v} for k, v in sorted(hashes.items())]
+    opts = ", ".join(f"{k}={v}" for k, v in sorted(cal.options.items()))
+    lines = [
+        f"<p>accelcore {escape(__version__)} (calibration written by "
+        f"{escape(prov.get('accelcore_version', 'unknown'))}); method {escape(cal.method)}; "
+        f"options: <code>{escape(opts)}</code></p>",
+        f"<p>Session folder: <code>{escape(session.path or 'in memory')}</code></p>",
+    ]
+    if rows:
+        lines.append(table(["file", "sha256"], rows))
+    else:
+        lines.append(note("No input file hashes (the session was built in memory)."))
+    return "\n".join(lines)
+
+
+def session_report(
+    session: Session | str | os.PathLike[str],
+    out_dir: str | os.PathLike[str],
+    *,
+    calibration: Calibration | None = None,
+    diagnosis: Diagnosis | None = None,
+) -> Path:
+    """Write a self-contained HTML report of one session to ``out_dir/index.html``.
+
+    Parameters
+    ----------
+    session : Session or path
+        A loaded session, or its folder (read with :func:`accelcore.load_session`).
+    out_dir : path
+        Folder to write ``index.html`` into (created).
+    calibration : Calibration, optional
+        The model reported; default ``diagnosis.base`` when a diagnosis is
+        given, else :func:`accelcore.calibrate` of the session (joint fit).
+    diagnosis : Diagnosis, optional
+        Default :func:`accelcore.diagnose` of the session and ``calibration``.
+
+    Returns
+    -------
+    pathlib.Path
+        The page written.
+
+    Raises
+    ------
+    accelcore.AccelcoreError, OSError
+        The session cannot be read or calibrated. Problems with a single
+        figure or table become a note on the page instead.
+    ImportError
+        matplotlib is not installed.
+    """
+    new_figure(1, 1)  # fail early, with the install hint, when matplotlib is missing
+    sess = session if isinstance(session, Session) else load_session(Path(session))
+    if calibration is None:
+        calibration = diagnosis.base if diagnosis is not None else calibrate(sess)
+    if diagnosis is None:
+        diagnosis = diagnose(sess, calibration)
+    cal = calibration
+    name = Path(sess.path).name if sess.path else "in-memory session"
+    title = f"{sess.sensor or 'unnamed sensor'}" + (f" #{sess.serial}" if sess.serial else "")
+    lo, hi = cal.temperature_range_c
+    runs = ", ".join(f"{r.label} ({r.orientation})" for r in sess.runs)
+    diag = diagnosis
+    sections = [
+        f"<h1>{escape(title)} — session {escape(name)}</h1>",
+        f'<p class="muted">Sensor {escape(sess.sensor or "not named")}, serial '
+        f"{escape(sess.serial or 'not given')}, units {escape(sess.units)}, "
+        f"{escape(f'{sess.rate_hz:g}')} Hz; runs: {escape(runs)}; fitted over "
+        f"{escape(f'{lo:.1f}')}…{escape(f'{hi:.1f}')} °C ({escape(cal.method)} fit).</p>",
+        '<section id="summary"><h2>Calibration summary</h2>',
+        guarded("Summary", lambda: _summary_table(cal)),
+        "</section>",
+        '<section id="datasheet"><h2>Datasheet comparison</h2>',
+        guarded("Datasheet comparison", lambda: _datasheet_tables(cal)),
+        "</section>",
+        '<section id="figures"><h2>Figures 4, 6 and 7</h2>',
+        guarded("Figure 4", lambda: _figure4(sess, cal)),
+        guarded("Figure 6", lambda: _paired_figure(sess, cal, "gain")),
+        guarded("Figure 7", lambda: _paired_figure(sess, cal, "offset")),
+        "</section>",
+        '<section id="diagnosis"><h2>Diagnosis</h2>',
+        guarded("Diagnosis table", lambda: _diagnosis_section(diag)),
+        guarded("Residual plots", lambda: _residual_figure(diag)),
+        "</section>",
+        '<section id="notes"><h2>Notes and not identified</h2>',
+        _notes_section(cal, diag),
+        "</section>",
+        '<section id="provenance"><h2>Provenance</h2>',
+        _provenance_section(sess, cal),
+        "</section>",
+    ]
+    return write_page(out_dir, page(f"accelcore report: {title}, {name}", sections))
