@@ -14,6 +14,7 @@ from accelcore.diagnosis import Diagnosis, diagnose, leg_labels, rate_c_per_min,
 from accelcore.fitting.calibrate import calibrate
 from accelcore.input.session import Session
 from accelcore.model import AXES, Term
+from accelcore.outputs.diagnosis_plot import plot_diagnosis
 from accelcore.simulate import effects as se
 
 SEEDS = (1, 2)
@@ -179,7 +180,7 @@ def test_report_text_json_and_plot() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig = d.plot()
+    fig = plot_diagnosis(d)
     assert len(fig.axes) == 4
     plt.close(fig)
 
