@@ -143,6 +143,14 @@ class Engine:
         self.n_folds = len(self.fold_names)
         self.sample_fold = self.block_fold[self.sample_block]
         self.fold_rows = [np.flatnonzero(self.sample_fold == k) for k in range(self.n_folds)]
+        # Each fold as contiguous stretches of samples (neighbouring blocks joined).
+        self.fold_spans: list[list[tuple[int, int]]] = [[] for _ in range(self.n_folds)]
+        for k, s, e in zip(self.block_fold, self.block_start, self.block_stop, strict=True):
+            spans = self.fold_spans[k]
+            if spans and spans[-1][1] == s:
+                spans[-1] = (spans[-1][0], int(e))
+            else:
+                spans.append((int(s), int(e)))
         # Scale per axis (units per g) for mg conversion, fixed terms, centring.
         self.base = base
         self.scale: dict[str, float] = {}
@@ -277,15 +285,15 @@ class Engine:
         beta_fold = np.zeros((self.n_folds, p))
         if p == 0:
             return Fit(x, np.zeros(0), beta_fold, float((w * y * y).sum()))
-        # One accumulator per fold, its blocks pushed in time order.
+        # One accumulator per fold, its blocks pushed in time order (row slices, no copy).
         folds = []
-        for rows in self.fold_rows:
+        for spans in self.fold_spans:
             acc = LeastSquares(p, column_names=_NAMES[:p])
-            if rows.size:
-                acc.push(x[rows], y[rows], w[rows])
+            for s, e in spans:
+                acc.push(x[s:e], y[s:e], w[s:e])
             folds.append(acc)
         for k in range(self.n_folds):
-            if self.fold_rows[k].size == 0:
+            if not self.fold_spans[k]:
                 continue
             train = LeastSquares(p, column_names=_NAMES[:p])
             for j, acc in enumerate(folds):
@@ -301,9 +309,9 @@ class Engine:
     def heldout_residuals(self, y: FloatArray, fit: Fit) -> FloatArray:
         """Residual of every sample under the fit that held its fold out, mg."""
         r_out = np.empty(self.n)
-        for k, rows in enumerate(self.fold_rows):
-            if rows.size:
-                r_out[rows] = y[rows] - fit.x[rows] @ fit.beta_fold[k]
+        for k, spans in enumerate(self.fold_spans):
+            for s, e in spans:
+                r_out[s:e] = y[s:e] - fit.x[s:e] @ fit.beta_fold[k]
         return r_out
 
     def cv(self, axis: str, terms: Sequence[Term]) -> CV:
