@@ -5,9 +5,10 @@ a ``supply_v`` column so the ``extra`` family has a candidate) with an injected
 first-order thermal lag, so the lag search finds something. ``diagnose`` is timed
 with 1, 2, 4 and all 6 candidate families (each set holds ``thermal_lag``), and
 with a narrower ``tau_range_s``. The cost is counted in cross-validated fits
-(``_Engine.cv``: one per candidate model, each solving once per held-out fold and
-once in-sample on per-block Gram matrices); the counts and the time spent inside
-the lag search come from one extra instrumented run per row, never the timed ones.
+(``Engine.cv``: one per candidate model, each solving once per held-out fold and
+once in-sample with the core's Givens least squares, the folds' accumulators
+merged); the counts and the time spent inside the lag search come from one extra
+instrumented run per row, never the timed ones.
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ from typing import Any
 
 from accelcore import diagnosis, simulate
 from accelcore.apps.bench import Context, Table, measure
+from accelcore.diagnosis import engine as diagnosis_engine
+from accelcore.diagnosis import search as diagnosis_search
 from accelcore.input.session import Session
 from accelcore.simulate import effects as se
 
@@ -59,10 +62,10 @@ class Counts:
 
 @contextmanager
 def instrumented() -> Iterator[Counts]:
-    """Count ``_Engine.cv`` calls and time ``_search_tau`` (module globals, restored after)."""
+    """Count ``Engine.cv`` calls and time ``search_tau`` (module globals, restored after)."""
     counts = Counts()
-    engine: Any = diagnosis._Engine
-    cv, search = engine.cv, diagnosis._search_tau
+    engine: Any = diagnosis_engine.Engine
+    cv, search = engine.cv, diagnosis_search.search_tau
     in_search = [False]
 
     def counted_cv(self: Any, *args: Any, **kwargs: Any) -> Any:
@@ -82,12 +85,12 @@ def instrumented() -> Iterator[Counts]:
             in_search[0] = False
 
     engine.cv = counted_cv
-    setattr(diagnosis, "_search_tau", timed_search)  # noqa: B010 - private, patched on purpose
+    setattr(diagnosis_search, "search_tau", timed_search)  # noqa: B010 - patched on purpose
     try:
         yield counts
     finally:
         engine.cv = cv
-        setattr(diagnosis, "_search_tau", search)  # noqa: B010
+        setattr(diagnosis_search, "search_tau", search)  # noqa: B010
 
 
 def _found(d: diagnosis.Diagnosis) -> str:

@@ -10,10 +10,13 @@ import numpy as np
 import pytest
 
 from accelcore import simulate
+from accelcore.core import LeastSquares
 from accelcore.diagnosis import Diagnosis, diagnose, leg_labels, rate_c_per_min, residuals
+from accelcore.diagnosis.engine import _solve
 from accelcore.fitting.calibrate import calibrate
 from accelcore.input.session import Session
 from accelcore.model import AXES, Term
+from accelcore.outputs.diagnosis_plot import plot_diagnosis
 from accelcore.simulate import effects as se
 
 SEEDS = (1, 2)
@@ -179,7 +182,7 @@ def test_report_text_json_and_plot() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig = d.plot()
+    fig = plot_diagnosis(d)
     assert len(fig.axes) == 4
     plt.close(fig)
 
@@ -206,3 +209,29 @@ def test_legs_of_a_cycle() -> None:
     assert labels[0] == 0 and labels[-1] == 2
     rate = rate_c_per_min(t, temp)
     assert rate[1000] == pytest.approx(2.0, rel=1e-6)
+
+
+def test_engine_solve_drops_columns_the_data_cannot_identify() -> None:
+    """A duplicated and an all-zero column: zero coefficients, the minimum-norm fitted values."""
+    rng = np.random.default_rng(3)
+    t = rng.normal(size=200)
+    x = np.column_stack([np.ones(200), t, 2.0 * t, np.zeros(200), t**2])
+    y = 1.0 + 0.5 * t - 0.25 * t**2 + 0.01 * rng.normal(size=200)
+    w = np.ones(200)
+    acc = LeastSquares(5, column_names=[str(i) for i in range(5)])
+    acc.push(x, y, w)
+    beta, rss = _solve(acc, x, y, w, None)
+    ref = np.linalg.lstsq(x, y, rcond=None)[0]
+    assert beta[2] == 0.0 and beta[3] == 0.0
+    np.testing.assert_allclose(x @ beta, x @ ref, atol=1e-10)
+    assert rss == pytest.approx(float(((y - x @ ref) ** 2).sum()), rel=1e-8)
+    # Rows selected by a mask are pushed again over the identifiable columns.
+    rows = t > 0
+    sub = LeastSquares(5, column_names=[str(i) for i in range(5)])
+    sub.push(x[rows], y[rows], w[rows])
+    beta_sub, _ = _solve(sub, x, y, w, rows)
+    ref_sub = np.linalg.lstsq(x[rows], y[rows], rcond=None)[0]
+    np.testing.assert_allclose(x[rows] @ beta_sub, x[rows] @ ref_sub, atol=1e-10)
+    # No training row: every coefficient zero.
+    beta_none, _ = _solve(LeastSquares(5), x, y, w, np.zeros(200, dtype=bool))
+    assert not beta_none.any()

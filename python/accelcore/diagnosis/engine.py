@@ -1,0 +1,403 @@
+"""The cross-validation engine: samples cut into parts, blocks and folds; held-out fits per axis.
+
+Each run's samples inside the calibration's window are cut into *parts* (run x leg of
+the temperature cycle), parts into *blocks* of at most ``block_s`` seconds (the unit
+of the paired test), and blocks into *folds* (whole runs, legs, or thirds of each run
+in time). :meth:`Engine.cv` fits an axis model once per fold on the other folds and
+once on everything, with the core's Givens least squares
+(:class:`accelcore.core.LeastSquares`): one accumulator per fold, fed block by block,
+and the fold's held-out fit a merge of the other folds' accumulators. The held-out
+error of each block is that of its fold's coefficients on the block's rows.
+
+A design that cannot identify some column (on the training data of a fold, say) is
+solved without it: the column's coefficient is zero (see :func:`_solve`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from accelcore.core import LeastSquares
+from accelcore.errors import InsufficientDataError, ParameterError, SingularSystemError
+from accelcore.fitting.calibrate import CutFeatures, Stacked, block_weights
+from accelcore.input.session import Session
+from accelcore.model import AXES, Features, Term, design_columns
+from accelcore.result.calibration import Calibration, nominal_sensitivity
+
+from .observables import leg_labels, rate_c_per_min
+
+__all__ = ["CV", "Engine"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass
+class CV:
+    """Cross-validated fit of one axis model."""
+
+    terms: tuple[Term, ...]
+    sse_blocks: FloatArray  # held-out weighted SSE per block, mg²
+    sse_in: float  # in-sample weighted SSE, mg²
+    rms_out: float
+    rms_in: float
+
+
+class Engine:
+    """Samples cut into parts (run x leg), blocks and folds; fast blocked CV per axis."""
+
+    def __init__(
+        self,
+        session: Session,
+        base: Calibration,
+        *,
+        folds: str,
+        block_s: float,
+        steady_c_per_min: float,
+    ) -> None:
+        self.session = session
+        self.t_ref_c = base.t_ref_c
+        window = None if not np.all(np.isfinite(base.window_c)) else base.window_c
+        self.references = dict(base.references)
+        feats: list[Features] = []
+        grav, out, wts, run_idx = [], [], [], []
+        part_run: list[int] = []
+        part_leg: list[int] = []
+        leg_kinds: dict[tuple[int, int], str] = {}
+        rates: list[FloatArray] = []
+        for i, run in enumerate(session.runs):
+            if len(run) == 0:
+                continue
+            time_s = run.time_s - run.time_s[0]
+            whole = Features(run.temperature_c, time_s, run.extras, self.t_ref_c)
+            rate = rate_c_per_min(run.time_s, run.temperature_c)
+            legs, kinds = leg_labels(
+                run.time_s, run.temperature_c, steady_c_per_min=steady_c_per_min
+            )
+            if window is None:
+                inside = np.ones(len(run), dtype=bool)
+            else:
+                inside = (run.temperature_c >= window[0]) & (run.temperature_c <= window[1])
+            # Same weights as the calibration: spikes and clipped blocks left out.
+            weight, _ = block_weights(run, robust=bool(base.options.get("robust", True)))
+            for leg in range(len(kinds)):
+                keep = inside & (legs == leg)
+                if np.count_nonzero(keep) < 2:
+                    continue
+                feats.append(CutFeatures.cut(whole, keep))
+                grav.append(run.gravity_g)
+                out.append(run.output[keep])
+                wts.append(weight[keep])
+                run_idx.append(i)
+                part_run.append(i)
+                part_leg.append(leg)
+                leg_kinds[(i, leg)] = kinds[leg]
+                rates.append(rate[keep])
+        if not feats:
+            raise InsufficientDataError("no decimated sample lies in the calibration's window")
+        self.data = Stacked(feats, grav, out, wts, run_idx)
+        self.part_run = part_run
+        self.part_leg = part_leg
+        sizes = [len(f) for f in feats]
+        self.n = int(sum(sizes))
+        self.part_start = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+        self.w = np.concatenate(wts)
+        self.gravity = np.vstack(
+            [np.broadcast_to(g, (s, 3)) for g, s in zip(grav, sizes, strict=True)]
+        )
+        self.output = np.vstack(out)
+        self.temperature = np.concatenate([f.temperature_c for f in feats])
+        self.elapsed_s = np.concatenate([np.asarray(f.time_s) for f in feats])
+        self.rate = np.concatenate(rates)
+        self.sample_part = np.repeat(np.arange(len(feats)), sizes)
+        self.sample_run = np.repeat(np.asarray(part_run), sizes)
+        self.extras = {
+            name: np.concatenate([np.asarray(f.extras[name]) for f in feats])
+            for name in session.extra_columns
+        }
+        self._basis_cache: dict[str, FloatArray] = {}
+        # Blocks: contiguous stretches of at most block_s inside one part.
+        starts: list[int] = []
+        block_part: list[int] = []
+        for p, f in enumerate(feats):
+            t = np.asarray(f.time_s)
+            chunk = np.floor((t - t[0]) / block_s).astype(np.int64)
+            edges = np.flatnonzero(np.diff(chunk)) + 1
+            b0 = [0, *edges.tolist()]
+            # Merge a short last chunk into the one before it.
+            if len(b0) > 1 and (t[-1] - t[b0[-1]]) < 0.5 * block_s:
+                b0 = b0[:-1]
+            starts += [int(self.part_start[p]) + s for s in b0]
+            block_part += [p] * len(b0)
+        self.block_start = np.asarray(starts, dtype=np.int64)
+        self.block_part = np.asarray(block_part, dtype=np.int64)
+        self.block_stop = np.append(self.block_start[1:], self.n)
+        self.sample_block = np.repeat(
+            np.arange(self.block_start.size), self.block_stop - self.block_start
+        )
+        self.scheme, self.fold_names, self.block_fold = self._choose_folds(folds, leg_kinds)
+        self.n_folds = len(self.fold_names)
+        self.sample_fold = self.block_fold[self.sample_block]
+        self.fold_rows = [np.flatnonzero(self.sample_fold == k) for k in range(self.n_folds)]
+        # Each fold as contiguous stretches of samples (neighbouring blocks joined).
+        self.fold_spans: list[list[tuple[int, int]]] = [[] for _ in range(self.n_folds)]
+        for k, s, e in zip(self.block_fold, self.block_start, self.block_stop, strict=True):
+            spans = self.fold_spans[k]
+            if spans and spans[-1][1] == s:
+                spans[-1] = (spans[-1][0], int(e))
+            else:
+                spans.append((int(s), int(e)))
+        # Scale per axis (units per g) for mg conversion, fixed terms, centring.
+        self.base = base
+        self.scale: dict[str, float] = {}
+        self.fixed: dict[str, list[tuple[Term, float]]] = {}
+        self.y: dict[str, FloatArray] = {}
+        for a_i, a in enumerate(AXES):
+            m = base.axes[a]
+            s0, _ = m.value("gain", "1", a)
+            if not s0:
+                nominal = nominal_sensitivity(session.units, session.sensor)
+                s0 = nominal[a_i] if nominal else 1.0
+            self.scale[a] = float(s0)
+            fixed = [
+                (term, float(c))
+                for term, c, e in zip(m.terms, m.coefficients, m.estimated, strict=True)
+                if not e
+            ]
+            self.fixed[a] = fixed
+            y = self.output[:, a_i].copy()
+            for term, c in fixed:
+                y -= c * self.column(term)
+            # Centre with the base model's constant and own-gain terms (in every model's span).
+            c_off, _ = m.value("offset", "1")
+            y -= c_off
+            if not any(
+                term.kind == "gain" and term.basis == "1" and term.source == a for term, _ in fixed
+            ):
+                y -= s0 * self.gravity[:, a_i]
+            self.y[a] = y * (1000.0 / self.scale[a])
+
+    # -------------------------------------------------------------- folds
+    def _choose_folds(
+        self, folds: str, leg_kinds: Mapping[tuple[int, int], str]
+    ) -> tuple[str, list[str], NDArray[np.int64]]:
+        runs = sorted(set(self.part_run))
+        part_run = np.asarray(self.part_run)
+        part_leg = np.asarray(self.part_leg)
+        if folds not in ("auto", "runs", "legs", "blocks"):
+            raise ParameterError(f"folds must be auto, runs, legs or blocks, got {folds!r}")
+
+        def diverse(part_fold: NDArray[np.int64]) -> bool:
+            sample_fold = part_fold[self.sample_part]
+            # Every fold's training data must keep each axis' gravity at two values or more
+            # (offset and sensitivity told apart) wherever the whole session does.
+            for a_i in range(3):
+                need = min(2, np.unique(self.gravity[:, a_i]).size)
+                for k in np.unique(part_fold):
+                    train = self.gravity[sample_fold != k, a_i]
+                    if train.size == 0 or np.unique(train).size < need:
+                        return False
+            return True
+
+        if folds in ("auto", "runs") and len(runs) >= 3:
+            pf = np.searchsorted(runs, part_run).astype(np.int64)
+            if folds == "runs" or diverse(pf):
+                names = [f"run {self.session.runs[r].label}" for r in runs]
+                return "runs", names, pf[self.block_part]
+        n_legs = int(part_leg.max()) + 1
+        if folds in ("auto", "legs") and n_legs >= 2:
+            names = []
+            for leg in range(n_legs):
+                kinds = sorted({leg_kinds[(r, lg)] for (r, lg) in leg_kinds if lg == leg})
+                names.append(f"leg {leg + 1} ({'/'.join(kinds)})")
+            return "legs", names, part_leg.astype(np.int64)[self.block_part]
+        if folds == "legs" and n_legs < 2:
+            raise ParameterError("folds='legs' needs runs with at least two legs")
+        # Thirds of every run in time: parts are split further by third.
+        return "blocks", ["first third", "middle third", "last third"], self._split_thirds()
+
+    def _split_thirds(self) -> NDArray[np.int64]:
+        # Blocks of each run assigned to thirds of its duration.
+        block_fold = np.zeros(self.block_start.size, dtype=np.int64)
+        for r in set(self.part_run):
+            sel = np.flatnonzero(np.asarray(self.part_run)[self.block_part] == r)
+            t = self.elapsed_s[self.block_start[sel]]
+            span = max(float(t.max() - t.min()), 1e-9)
+            block_fold[sel] = np.minimum(2, np.floor(3 * (t - t.min()) / span * 0.9999)).astype(
+                np.int64
+            )
+        return block_fold
+
+    # -------------------------------------------------------------- columns
+    def basis(self, name: str) -> FloatArray:
+        """Return the column of a basis (e.g. ``dT^2``, ``lag(60):dT^1``) over every sample."""
+        if name not in self._basis_cache:
+            one = Term("offset", name)
+            self._basis_cache[name] = np.concatenate(
+                [
+                    design_columns((one,), f, g, self.references)[:, 0]
+                    for f, g in zip(self.data.features, self.data.gravity, strict=True)
+                ]
+            )
+        return self._basis_cache[name]
+
+    def drop_lag_cache(self, keep: Sequence[float]) -> None:
+        """Forget the cached lagged bases except those of the time constants ``keep``."""
+        keep_s = {f"lag({k:.6g})" for k in keep}
+        for key in list(self._basis_cache):
+            if key.startswith("lag(") and key.split(":")[0] not in keep_s:
+                del self._basis_cache[key]
+
+    def column(self, term: Term) -> FloatArray:
+        """Return the design column of a term (a gain term's basis times its gravity)."""
+        col = self.basis(term.basis)
+        if term.kind == "gain":
+            col = col * self.gravity[:, AXES.index(term.source or "x")]
+        return col
+
+    def free_terms(self, axis: str, terms: Sequence[Term]) -> tuple[Term, ...]:
+        """Terms minus those the base held fixed (matched ignoring lag)."""
+
+        def key(t: Term) -> tuple[str, str, str | None]:
+            basis = t.basis.split(":", 1)[1] if t.basis.startswith("lag(") else t.basis
+            return t.kind, basis, t.source if t.kind == "gain" else None
+
+        fixed = {key(t) for t, _ in self.fixed[axis]}
+        return tuple(t for t in terms if key(t) not in fixed)
+
+    def design(self, axis: str, terms: Sequence[Term]) -> FloatArray:
+        """Return the design of the free terms of an axis model, one row per sample."""
+        free = self.free_terms(axis, terms)
+        if not free:
+            return np.zeros((self.n, 0))
+        return np.column_stack([self.column(t) for t in free])
+
+    # -------------------------------------------------------------- fitting
+    def fit(self, axis: str, terms: Sequence[Term]) -> Fit:
+        """Fit the free terms of ``terms`` on every fold's training data and on all data."""
+        x = self.design(axis, terms)
+        y, w = self.y[axis], self.w
+        p = x.shape[1]
+        beta_fold = np.zeros((self.n_folds, p))
+        if p == 0:
+            return Fit(x, np.zeros(0), beta_fold, float((w * y * y).sum()))
+        # One accumulator per fold, its blocks pushed in time order (row slices, no copy).
+        folds = []
+        for spans in self.fold_spans:
+            acc = LeastSquares(p, column_names=_NAMES[:p])
+            for s, e in spans:
+                acc.push(x[s:e], y[s:e], w[s:e])
+            folds.append(acc)
+        for k in range(self.n_folds):
+            if not self.fold_spans[k]:
+                continue
+            train = LeastSquares(p, column_names=_NAMES[:p])
+            for j, acc in enumerate(folds):
+                if j != k:
+                    train.merge(acc)
+            beta_fold[k] = _solve(train, x, y, w, self.sample_fold != k)[0]
+        total = LeastSquares(p, column_names=_NAMES[:p])
+        for acc in folds:
+            total.merge(acc)
+        beta_in, rss_in = _solve(total, x, y, w, None)
+        return Fit(x, beta_in, beta_fold, rss_in)
+
+    def heldout_residuals(self, y: FloatArray, fit: Fit) -> FloatArray:
+        """Residual of every sample under the fit that held its fold out, mg."""
+        r_out = np.empty(self.n)
+        for k, spans in enumerate(self.fold_spans):
+            for s, e in spans:
+                r_out[s:e] = y[s:e] - fit.x[s:e] @ fit.beta_fold[k]
+        return r_out
+
+    def cv(self, axis: str, terms: Sequence[Term]) -> CV:
+        """Held-out error per block and in-sample error of an axis model."""
+        fit = self.fit(axis, terms)
+        r_out = self.heldout_residuals(self.y[axis], fit)
+        sse_blocks = np.bincount(
+            self.sample_block, weights=self.w * r_out * r_out, minlength=self.block_start.size
+        ).astype(np.float64)
+        sse_in = max(fit.rss_in, 0.0)
+        wsum = float(self.w.sum())
+        return CV(
+            tuple(terms),
+            sse_blocks,
+            sse_in,
+            math.sqrt(float(sse_blocks.sum()) / wsum),
+            math.sqrt(sse_in / wsum),
+        )
+
+    def residuals(self, axis: str, terms: Sequence[Term]) -> tuple[FloatArray, FloatArray]:
+        """In-sample and held-out residual per sample, mg."""
+        fit = self.fit(axis, terms)
+        y = self.y[axis]
+        return y - fit.x @ fit.beta_in, self.heldout_residuals(y, fit)
+
+
+@dataclass(frozen=True)
+class Fit:
+    """Coefficients of the free terms of one axis model, in-sample and per held-out fold.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n, p)
+        Design of the free terms, one row per sample.
+    beta_in : ndarray, shape (p,)
+        Fit on every sample.
+    beta_fold : ndarray, shape (n_folds, p)
+        Fit on every fold but the k-th (zeros for an empty fold).
+    rss_in : float
+        Weighted residual sum of squares of ``beta_in``, mg².
+    """
+
+    x: FloatArray
+    beta_in: FloatArray
+    beta_fold: FloatArray
+    rss_in: float
+
+
+#: Column names of the accumulators: the column's index, so that a rank error maps back.
+_NAMES = [str(i) for i in range(64)]
+
+
+def _solve(
+    acc: LeastSquares,
+    x: FloatArray,
+    y: FloatArray,
+    w: FloatArray,
+    rows: NDArray[np.bool_] | None,
+) -> tuple[FloatArray, float]:
+    """Coefficients and weighted RSS of an accumulated problem; unidentified columns get zero.
+
+    The core names the columns it cannot identify (``SingularSystemError.columns``);
+    they are dropped and the problem's rows (``x[rows]``, every row when ``rows`` is
+    None) pushed again over the remaining columns, until the design has full rank.
+    On the rows fitted, the fitted values are those of the minimum-norm solution; the
+    coefficients differ from it only in how they split among columns that those rows
+    cannot tell apart. With no row, fewer rows than columns, or no identifiable
+    column, every coefficient is zero.
+    """
+    p = x.shape[1]
+    keep = np.arange(p)
+    while acc.n_rows >= keep.size > 0:
+        try:
+            solution = acc.finish()
+        except SingularSystemError as exc:
+            drop = {int(c) for c in exc.columns}
+            keep = keep[[i for i in range(keep.size) if i not in drop]]
+            if keep.size:
+                acc = LeastSquares(int(keep.size), column_names=_NAMES[: keep.size])
+                if rows is None:
+                    acc.push(x[:, keep], y, w)
+                else:
+                    acc.push(x[np.ix_(rows, keep)], y[rows], w[rows])
+            continue
+        beta = np.zeros(p)
+        beta[keep] = solution.coefficients
+        return beta, float(solution.residual_sum_squares)
+    rw, ry = (w, y) if rows is None else (w[rows], y[rows])
+    return np.zeros(p), float((rw * ry * ry).sum())

@@ -1,0 +1,106 @@
+"""Final fits of the chosen models and their added parameters in readable units.
+
+:func:`fit_models` fits each axis' chosen terms with
+:func:`accelcore.fitting.calibrate.fit_axis` (the core's Givens least squares, with
+standard errors); :func:`added_parameters` reads off the parameters a family added,
+in mg, %, degrees or seconds.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from accelcore.fitting.calibrate import fit_axis
+from accelcore.model import AXES
+from accelcore.result.calibration import AxisModel, nominal_sensitivity
+
+from .engine import Engine
+from .search import tau_se
+from .space import Spec
+
+__all__ = ["added_parameters", "fit_models"]
+
+
+def added_parameters(
+    eng: Engine,
+    models: Mapping[str, AxisModel],
+    axes: Sequence[str],
+    family: str,
+    specs: Mapping[str, Spec],
+) -> list[dict[str, Any]]:
+    """Return the added parameters with standard errors, in readable units."""
+    out: list[dict[str, Any]] = []
+    for a in axes:
+        m = models[a]
+        s = eng.scale[a]
+        if family == "thermal_lag":
+            spec = specs[a]
+            tau = spec.tau if spec.tau is not None else spec.rate_tau
+            out.append(
+                {"axis": a, "name": "tau", "value": tau, "se": tau_se(eng, a, spec), "unit": "s"}
+            )
+            if spec.rate_tau is not None:
+                # offset c·(T_lag - T_ref) beside c1·(T - T_ref): c·(T_lag - T) ≈ -c·tau·dT/dt.
+                c, se = m.value("offset", f"lag({spec.rate_tau:.6g}):dT^1")
+                k = -spec.rate_tau / 60.0 * 1000.0 / s
+                out.append(
+                    {
+                        "axis": a,
+                        "name": "rate coefficient",
+                        "value": c * k,
+                        "se": abs(se * k),
+                        "unit": "mg per °C/min",
+                    }
+                )
+            continue
+        for t, c, var, est in zip(
+            m.terms, m.coefficients, np.diag(m.covariance), m.estimated, strict=True
+        ):
+            if t.effect != (family if not family.startswith("extra:") else "extra"):
+                continue
+            if family.startswith("extra:") and t.basis != family:
+                continue
+            se = math.sqrt(max(float(var), 0.0)) if est else math.nan
+            basis = t.basis.split(":", 1)[1] if t.basis.startswith("lag(") else t.basis
+            if t.kind == "offset":
+                unit = {"elapsed_h": "mg/h"}.get(
+                    basis, "mg/°C^" + basis[3:] if basis.startswith("dT^") else "mg/unit"
+                )
+                factor = 1000.0 / s
+            elif t.source == a:
+                unit, factor = "%/°C^" + basis[3:], 100.0 / s
+            else:
+                unit, factor = "deg", math.degrees(1.0) / s
+            out.append(
+                {
+                    "axis": a,
+                    "name": t.name,
+                    "value": float(c) * factor,
+                    "se": se * factor,
+                    "unit": unit,
+                }
+            )
+    return out
+
+
+def fit_models(
+    eng: Engine, specs: Mapping[str, Spec], axes: Sequence[str] = AXES
+) -> tuple[dict[str, AxisModel], list[str], list[str]]:
+    """Fit the chosen terms of ``axes``: the models, the names held fixed, and notes."""
+    nominal = nominal_sensitivity(eng.session.units, eng.session.sensor)
+    models: dict[str, AxisModel] = {}
+    fixed_all: list[str] = []
+    notes: list[str] = []
+    for a in axes:
+        i = AXES.index(a)
+        model, fixed, axis_notes = fit_axis(
+            a, specs[a].terms(a), eng.data, None if nominal is None else nominal[i], eng.references
+        )
+        models[a] = model
+        fixed_all += fixed
+        notes += axis_notes
+    return models, fixed_all, notes

@@ -1,0 +1,373 @@
+"""Results of the diagnosis: :class:`Diagnosis` with its :class:`Step` and :class:`Structure`.
+
+A :class:`Diagnosis` holds the base and the improved calibration, every step of the
+greedy selection with its in-sample and held-out figures, every candidate tried, the
+structure check and the caveats; it renders itself as tables (:meth:`Diagnosis.report`,
+:meth:`Diagnosis.heldout_table`), text and plain data for JSON. It keeps the
+cross-validation engine, so any other model can be scored on the same folds
+(:meth:`Diagnosis.evaluate`). Plots are outputs: see
+:func:`accelcore.outputs.diagnosis_plot.plot_diagnosis`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from accelcore.errors import ParameterError
+from accelcore.input.session import Session
+from accelcore.model import AXES, Term
+from accelcore.result.calibration import Calibration
+
+from .engine import Engine
+from .stats import wrms
+
+__all__ = ["Diagnosis", "Step", "Structure"]
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Structure of the final residual against one observable (binned means vs noise).
+
+    Attributes
+    ----------
+    axis : str
+    observable : str
+        ``temperature_c``, ``dtemp_dt_c_per_min``, ``elapsed_s`` (binned within
+        each run) or an extra column.
+    chi2, dof, p_value : float, int, float
+        Chi-square of the binned means against their white-noise standard errors.
+    structure_rms_mg : float
+        Estimated RMS of the binned structure, mg (excess over noise).
+    noise_mg : float
+        White-noise level of the residual (first differences), mg.
+    significant : bool
+        ``p_value < alpha_structure`` and ``structure_rms_mg >= min_structure_mg``.
+    note : str
+        E.g. the period of a periodic structure in time.
+    """
+
+    axis: str
+    observable: str
+    chi2: float
+    dof: int
+    p_value: float
+    structure_rms_mg: float
+    noise_mg: float
+    significant: bool
+    note: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form for JSON."""
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class Step:
+    """One step of the greedy selection (step 0: the base model).
+
+    Attributes
+    ----------
+    index : int
+    effect : str
+        Family added (``base`` for step 0).
+    axes : tuple of str
+        Axes it was added to.
+    variant : dict of str to str
+        Per axis: the chosen variant (``order 3``, ``tau 118 s``, ...).
+    parameters : list of dict
+        Each added parameter: ``axis``, ``name``, ``value``, ``se``, ``unit``.
+    rms_in_mg, max_in_mg, rms_out_mg, max_out_mg : float
+        In-sample and held-out error of the model after this step, all axes pooled.
+    rms_out_axis_mg, rms_in_axis_mg, max_out_axis_mg : dict of str to float
+        The same per axis.
+    rms_out_fold_axis_mg : dict of str to dict of str to float
+        Held-out RMS per fold (name) and axis.
+    cut : dict of str to float
+        Relative cut of held-out RMS per axis it was added to.
+    p_value : dict of str to float
+        Of the paired test per axis it was added to.
+    terms : dict of str to list of Term
+        The model of every axis after this step.
+    """
+
+    index: int
+    effect: str
+    axes: tuple[str, ...]
+    variant: dict[str, str]
+    parameters: list[dict[str, Any]]
+    rms_in_mg: float
+    max_in_mg: float
+    rms_out_mg: float
+    max_out_mg: float
+    rms_in_axis_mg: dict[str, float]
+    rms_out_axis_mg: dict[str, float]
+    max_out_axis_mg: dict[str, float]
+    rms_out_fold_axis_mg: dict[str, dict[str, float]]
+    cut: dict[str, float]
+    p_value: dict[str, float]
+    terms: dict[str, tuple[Term, ...]]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form for JSON."""
+        d = dataclasses.asdict(self)
+        d["terms"] = {a: [t.to_dict() for t in ts] for a, ts in self.terms.items()}
+        d["axes"] = list(self.axes)
+        return d
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """Result of :func:`diagnose`.
+
+    Attributes
+    ----------
+    base : Calibration
+        The model diagnosed.
+    calibration : Calibration
+        The improved calibration (method ``"diagnosed"``); it is ``base``
+        refitted when nothing was added.
+    steps : tuple of Step
+        Step 0 is the base model, then one per added effect.
+    candidates : pandas.DataFrame
+        Every family tried at every step, per axis: best variant, held-out
+        RMS before and after, cut, p-value, accepted.
+    structures : tuple of Structure
+        Generic check of the final residual against every observable.
+    warnings : tuple of str
+        Effects that cannot be told apart on this data, and other caveats.
+    folds : tuple of str
+        The held-out folds (``scheme`` says how they were formed).
+    scheme : str
+        ``runs``, ``legs`` or ``blocks``.
+    options : dict
+        Every option used.
+    """
+
+    base: Calibration
+    calibration: Calibration
+    steps: tuple[Step, ...]
+    candidates: pd.DataFrame
+    structures: tuple[Structure, ...]
+    warnings: tuple[str, ...]
+    folds: tuple[str, ...]
+    scheme: str
+    options: dict[str, Any]
+    _engine: Engine | None = field(default=None, repr=False, compare=False)
+
+    def _data(self) -> Engine:
+        if self._engine is None:
+            raise ParameterError("this Diagnosis was restored without its data")
+        return self._engine
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        """Families added, in order."""
+        return tuple(s.effect for s in self.steps[1:])
+
+    @property
+    def unexplained(self) -> tuple[Structure, ...]:
+        """Significant structures, strongest first."""
+        sig = [s for s in self.structures if s.significant]
+        return tuple(sorted(sig, key=lambda s: -s.structure_rms_mg))
+
+    # -------------------------------------------------------------- tables
+    def report(self) -> pd.DataFrame:
+        """One row per step: effect, parameters, in-sample and held-out error before and after.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``step``, ``effect``, ``axes``, ``parameters`` (text with
+            standard errors), ``rms_in_before_mg``, ``rms_in_after_mg``,
+            ``max_in_before_mg``, ``max_in_after_mg``, ``rms_out_before_mg``,
+            ``rms_out_after_mg``, ``max_out_before_mg``, ``max_out_after_mg``
+            (all axes pooled), ``cut_pct`` (held-out RMS), then
+            ``rms_out_{axis}_before_mg`` / ``_after_mg`` per axis.
+        """
+        rows = []
+        prev = self.steps[0]
+        for s in self.steps:
+            row: dict[str, Any] = {
+                "step": s.index,
+                "effect": s.effect,
+                "axes": ",".join(s.axes),
+                "variant": "; ".join(f"{a}: {v}" for a, v in s.variant.items()),
+                "parameters": "; ".join(_fmt_param(p) for p in s.parameters),
+                "rms_in_before_mg": prev.rms_in_mg,
+                "rms_in_after_mg": s.rms_in_mg,
+                "max_in_before_mg": prev.max_in_mg,
+                "max_in_after_mg": s.max_in_mg,
+                "rms_out_before_mg": prev.rms_out_mg,
+                "rms_out_after_mg": s.rms_out_mg,
+                "max_out_before_mg": prev.max_out_mg,
+                "max_out_after_mg": s.max_out_mg,
+                "cut_pct": 100.0 * (1.0 - s.rms_out_mg / prev.rms_out_mg)
+                if prev.rms_out_mg > 0
+                else 0.0,
+            }
+            for a in AXES:
+                row[f"rms_out_{a}_before_mg"] = prev.rms_out_axis_mg[a]
+                row[f"rms_out_{a}_after_mg"] = s.rms_out_axis_mg[a]
+            rows.append(row)
+            prev = s
+        return pd.DataFrame(rows)
+
+    def heldout_table(self) -> pd.DataFrame:
+        """Held-out RMS error per step, fold and axis (mg), one row each."""
+        rows = []
+        for s in self.steps:
+            for fold, per_axis in s.rms_out_fold_axis_mg.items():
+                for a, v in per_axis.items():
+                    rows.append(
+                        {"step": s.index, "effect": s.effect, "fold": fold, "axis": a, "rms_mg": v}
+                    )
+        return pd.DataFrame(rows)
+
+    def evaluate(self, terms: Mapping[str, Sequence[Term]]) -> pd.DataFrame:
+        """Held-out and in-sample error of any model on this diagnosis' folds.
+
+        Parameters
+        ----------
+        terms : mapping of axis to sequence of Term
+            E.g. the fixed cubic offset model of PX4/ArduPilot.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per fold and ``all``, per axis: ``rms_out_mg``, ``max_out_mg``;
+            the ``all`` row also ``rms_in_mg``.
+        """
+        eng = self._data()
+        rows = []
+        for a in AXES:
+            ts = tuple(terms[a])
+            r_in, r_out = eng.residuals(a, ts)
+            for k, name in enumerate(eng.fold_names):
+                sel = eng.sample_fold == k
+                if not sel.any():
+                    continue
+                rows.append(
+                    {
+                        "fold": name,
+                        "axis": a,
+                        "rms_out_mg": wrms(r_out[sel], eng.w[sel]),
+                        "max_out_mg": float(np.abs(r_out[sel]).max()),
+                        "rms_in_mg": math.nan,
+                    }
+                )
+            rows.append(
+                {
+                    "fold": "all",
+                    "axis": a,
+                    "rms_out_mg": wrms(r_out, eng.w),
+                    "max_out_mg": float(np.abs(r_out).max()),
+                    "rms_in_mg": wrms(r_in, eng.w),
+                }
+            )
+        return pd.DataFrame(rows)
+
+    def text(self) -> str:
+        """Plain-text rendering: the step table, warnings and unexplained structure."""
+        rep = self.report()
+        lines = [
+            f"Diagnosis: {len(self.steps) - 1} effect(s) added; held-out folds: "
+            f"{self.scheme} ({', '.join(self.folds)})",
+            f"{'step':>4}  {'effect':<22}{'axes':<7}{'RMS in':>9}{'RMS out':>9}"
+            f"{'max out':>9}{'cut':>7}   (mg, all axes; before → after)",
+        ]
+        for r in rep.to_dict(orient="records"):
+            lines.append(
+                f"{r['step']:>4}  {r['effect']:<22}{r['axes']:<7}{r['rms_in_after_mg']:>9.3f}"
+                f"{r['rms_out_after_mg']:>9.3f}{r['max_out_after_mg']:>9.2f}{r['cut_pct']:>6.1f}%"
+            )
+            if r["variant"]:
+                lines.append(f"{'':>6}{r['variant']}")
+            if r["parameters"]:
+                lines.append(f"{'':>6}{r['parameters']}")
+        per_axis = "  ".join(
+            f"{a}: {self.steps[0].rms_out_axis_mg[a]:.3f} → {self.steps[-1].rms_out_axis_mg[a]:.3f}"
+            for a in AXES
+        )
+        lines.append(f"held-out RMS per axis (mg), base → diagnosed: {per_axis}")
+        for w in self.warnings:
+            lines.append(f"warning: {w}")
+        un = self.unexplained
+        if un:
+            lines.append("unexplained structure (no catalogue term explains it):")
+            for s in un:
+                lines.append(
+                    f"  axis {s.axis} vs {s.observable}: {s.structure_rms_mg:.3f} mg rms "
+                    f"(noise {s.noise_mg:.3f} mg, chi2 {s.chi2:.0f}/{s.dof}, p {s.p_value:.1e})"
+                    + (f"; {s.note}" if s.note else "")
+                )
+        else:
+            lines.append("no unexplained structure against any observable")
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.text()
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form for JSON (every step, every figure, warnings, structures)."""
+        return {
+            "scheme": self.scheme,
+            "folds": list(self.folds),
+            "effects": list(self.effects),
+            "steps": [s.to_dict() for s in self.steps],
+            "report": _records(self.report()),
+            "candidates": _records(self.candidates),
+            "structures": [s.to_dict() for s in self.structures],
+            "unexplained": [s.to_dict() for s in self.unexplained],
+            "warnings": list(self.warnings),
+            "options": dict(self.options),
+            "calibration": self.calibration.to_dict(),
+        }
+
+    # -------------------------------------------------------------- data
+    @property
+    def session(self) -> Session:
+        """The session diagnosed.
+
+        Raises
+        ------
+        accelcore.ParameterError
+            If this Diagnosis was restored without its data.
+        """
+        return self._data().session
+
+    @property
+    def default_observable(self) -> str:
+        """The observable most worth plotting the residual against.
+
+        That of the strongest unexplained structure, else the one the last added
+        effect depends on (``elapsed_s`` by default).
+        """
+        un = self.unexplained
+        if un:
+            return un[0].observable
+        last = self.effects[-1] if self.effects else ""
+        return {
+            "thermal_lag": "dtemp_dt_c_per_min",
+            "drift": "elapsed_s",
+            "misalignment": "run_index",
+        }.get(last, "elapsed_s")
+
+
+def _records(df: pd.DataFrame) -> list[dict[str, Any]]:
+    out = []
+    for rec in df.to_dict(orient="records"):
+        out.append({str(k): (v.item() if isinstance(v, np.generic) else v) for k, v in rec.items()})
+    return out
+
+
+def _fmt_param(p: Mapping[str, Any]) -> str:
+    se = p.get("se")
+    se_s = f" ± {se:.2g}" if se is not None and math.isfinite(se) and se > 0 else ""
+    return f"{p['axis']}:{p['name']} = {p['value']:.4g}{se_s} {p['unit']}".rstrip()

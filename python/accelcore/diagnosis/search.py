@@ -1,0 +1,156 @@
+"""The search of the diagnosis: variants of each family, the lag time-constant, confounding.
+
+:func:`variants` lists the variants of one family on one axis (orders, sources,
+extra columns), :func:`search_tau` finds a lag's time constant by held-out error (grid,
+then golden section), :func:`tau_se` its standard error, and :func:`confounding` the
+pairs of effects this data cannot tell apart.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from accelcore.model import AXES
+
+from .engine import CV, Engine
+from .space import Spec, with_tau
+
+__all__ = ["confounding", "search_tau", "tau_se", "variants"]
+
+FloatArray = NDArray[np.float64]
+
+_CONFOUND_TAU_S = 120.0
+
+
+def variants(
+    family: str, axis: str, spec: Spec, eng: Engine, max_order: int, extras: Sequence[str]
+) -> list[tuple[str, str, Spec]]:
+    """(family, variant label, spec) of one family on one axis, cheapest first."""
+    a_i = AXES.index(axis)
+    own_values = np.unique(eng.gravity[:, a_i]).size
+    out: list[tuple[str, str, Spec]] = []
+    if family == "offset_curvature":
+        out = [
+            (family, f"order {k}", replace(spec, offset_order=k))
+            for k in range(max(2, spec.offset_order + 1), max_order + 1)
+        ]
+    elif family == "sensitivity_curvature" and own_values >= 2:
+        out = [
+            (family, f"order {k}", replace(spec, gain_order=k))
+            for k in range(max(2, spec.gain_order + 1), max_order + 1)
+        ]
+    elif family == "misalignment" and not spec.cross:
+        sources = tuple(
+            b for b in AXES if b != axis and np.unique(eng.gravity[:, AXES.index(b)]).size >= 2
+        )
+        if sources:
+            out = [(family, "from " + "+".join(sources), replace(spec, cross=sources))]
+    elif family == "drift" and not spec.drift:
+        out = [(family, "linear", replace(spec, drift=True))]
+    elif family == "extra":
+        out = [
+            (f"extra:{e}", e, replace(spec, extras=(*spec.extras, e)))
+            for e in extras
+            if e not in spec.extras
+        ]
+    return out
+
+
+def search_tau(
+    eng: Engine, axis: str, spec: Spec, tau_range_s: tuple[float, float], variant: str
+) -> tuple[float, CV]:
+    """Grid then golden-section search of the lag time constant on held-out SSE."""
+    cache: dict[float, CV] = {}
+
+    def score(tau: float) -> float:
+        tau = float(f"{tau:.3g}")
+        if tau not in cache:
+            cache[tau] = eng.cv(axis, with_tau(spec, variant, tau).terms(axis))
+        return float(cache[tau].sse_blocks.sum())
+
+    lo, hi = math.log(tau_range_s[0]), math.log(tau_range_s[1])
+    grid = np.linspace(lo, hi, 12)
+    vals = [score(math.exp(g)) for g in grid]
+    i = int(np.argmin(vals))
+    a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    golden = (math.sqrt(5) - 1) / 2
+    c, d = b - golden * (b - a), a + golden * (b - a)
+    fc, fd = score(math.exp(c)), score(math.exp(d))
+    for _ in range(10):
+        if fc < fd:
+            b, d, fd = d, c, fc
+            c = b - golden * (b - a)
+            fc = score(math.exp(c))
+        else:
+            a, c, fc = c, d, fd
+            d = a + golden * (b - a)
+            fd = score(math.exp(d))
+    best = min(cache, key=lambda t: float(cache[t].sse_blocks.sum()))
+    return best, cache[best]
+
+
+def tau_se(eng: Engine, axis: str, spec: Spec) -> float:
+    """Return the standard error of tau from the curvature of the in-sample SSE profile."""
+    variant = "die" if spec.tau is not None else "rate"
+    tau = spec.tau if spec.tau is not None else spec.rate_tau
+    if tau is None:
+        return math.nan
+    h = 0.05 * tau
+    s0 = eng.cv(axis, spec.terms(axis))
+    sp = eng.cv(axis, with_tau(spec, variant, tau + h).terms(axis)).sse_in
+    sm = eng.cv(axis, with_tau(spec, variant, max(tau - h, 1e-3)).terms(axis)).sse_in
+    curv = (sp - 2 * s0.sse_in + sm) / (h * h)
+    p = len(s0.terms)
+    sigma2 = s0.sse_in / max(eng.n - p - 1, 1)
+    return math.sqrt(2.0 * sigma2 / curv) if curv > 0 else math.nan
+
+
+def confounding(
+    eng: Engine, specs: Mapping[str, Spec], extras: Sequence[str], threshold: float
+) -> list[str]:
+    """Pairs of effects whose signature columns correlate beyond ``threshold``."""
+    found: dict[tuple[str, str], tuple[float, list[str]]] = {}
+    w = eng.w
+    for a in AXES:
+        a_i = AXES.index(a)
+        sig: dict[str, FloatArray] = {
+            "temperature (linear tempco)": eng.basis("dT^1"),
+            "offset_curvature": eng.basis("dT^2"),
+            "thermal_lag": eng.basis(f"lag({_CONFOUND_TAU_S:g}):dT^1") - eng.basis("dT^1"),
+            "drift": eng.basis("elapsed_h"),
+        }
+        if np.unique(eng.gravity[:, a_i]).size >= 2:
+            sig["sensitivity_curvature"] = eng.basis("dT^2") * eng.gravity[:, a_i]
+        for b in AXES:
+            if b != a and np.unique(eng.gravity[:, AXES.index(b)]).size >= 2:
+                sig[f"misalignment (gravity on {b})"] = eng.gravity[:, AXES.index(b)].copy()
+        for e in extras:
+            sig[f"extra:{e}"] = eng.basis(f"extra:{e}")
+        names = list(sig)
+        centred = {}
+        for k in names:
+            v = sig[k] - float((w * sig[k]).sum() / w.sum())
+            nrm = math.sqrt(float((w * v * v).sum()))
+            if nrm > 0:
+                centred[k] = v / nrm
+        keys = list(centred)
+        for i in range(len(keys)):
+            for j in range(i + 1, len(keys)):
+                r = float((w * centred[keys[i]] * centred[keys[j]]).sum())
+                if abs(r) > threshold:
+                    pair = (keys[i], keys[j])
+                    prev = found.get(pair, (0.0, []))
+                    found[pair] = (max(prev[0], abs(r)), [*prev[1], a])
+    out = []
+    for (p1, p2), (r, axes) in found.items():
+        out.append(
+            f"{p1} and {p2} cannot be told apart on this data (|r| = {r:.3f} between their "
+            f"model columns, axes {','.join(axes)}); which one is chosen is arbitrary: log a "
+            "profile that separates them (e.g. heat and cool back, or soak at several temperatures)"
+        )
+    return out

@@ -1,0 +1,450 @@
+"""The greedy selection of the diagnosis and :func:`diagnose` itself.
+
+:func:`diagnose` searches a catalogue of candidate effects
+(:data:`~accelcore.diagnosis.space.FAMILIES`), each a named set of model terms, and
+adds them greedily by *held-out* error only. Cross-validation is blocked: whole runs
+are held out (three runs or more, when every fold keeps the orientations that identify
+each axis), else the legs of the temperature cycle, else thirds of each run in time. A
+family is added to an axis when the axis' held-out RMS error falls by at least
+``min_improvement`` *and* a paired one-sided t-test over held-out blocks of ``block_s``
+seconds (the per-block change of the squared error) is significant at ``alpha``. Each
+step adds the family with the largest total cut of held-out squared error over the axes
+that accept it, then revisits the lag of every axis, and repeats.
+
+The steps, in order: check the options (:func:`_check_options`), find the starting
+point in the model space (:func:`_starting_point`), cut the data
+(:class:`~accelcore.diagnosis.engine.Engine`), list the usable extra columns and the
+confounded effects, run the selection (:class:`_Selection`), fit the improved
+calibration (:func:`_improved_calibration`) and check the final residual for structure.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+
+from accelcore.errors import ParameterError
+from accelcore.fitting.calibrate import calibrate
+from accelcore.input.session import Session
+from accelcore.model import AXES
+from accelcore.result.calibration import Calibration
+
+from . import search
+from .engine import CV, Engine
+from .observables import STEADY_C_PER_MIN
+from .parameters import added_parameters, fit_models
+from .result import Diagnosis, Step
+from .search import confounding, variants
+from .space import FAMILIES, Spec, spec_from_terms, with_tau
+from .stats import paired_test, wrms
+from .structure import structures
+
+__all__ = ["diagnose"]
+
+#: (family, variant label, CV, spec) of one variant tried.
+_Tried = tuple[str, str, CV, Spec]
+
+
+@dataclass
+class Candidate:
+    """The best variant of one family on one axis at one step, and its verdict."""
+
+    family: str
+    axis: str
+    variant: str
+    spec: Spec
+    cv: CV
+    cut: float
+    t: float
+    p: float
+    accepted: bool
+
+
+@dataclass(frozen=True)
+class _Rules:
+    """What the selection may try and when it accepts."""
+
+    families: Sequence[str]
+    extras: Sequence[str]
+    max_order: int
+    tau_range_s: tuple[float, float]
+    min_improvement: float
+    alpha: float
+
+
+class _Selection:
+    """State of the greedy selection: each axis' spec, its held-out error, steps, candidates."""
+
+    def __init__(self, eng: Engine, specs: dict[str, Spec], rules: _Rules) -> None:
+        self.eng = eng
+        self.specs = specs
+        self.rules = rules
+        self.cv_cur = {a: eng.cv(a, specs[a].terms(a)) for a in AXES}
+        self.steps: list[Step] = []
+        self.cand_rows: list[dict[str, Any]] = []
+
+    def run(self, max_steps: int) -> None:
+        """Record the base model as step 0, then add effects until none is accepted."""
+        self.steps.append(self._step(0, "base", [], []))
+        for step in range(1, max_steps + 1):
+            if self.eng.n_folds < 2:
+                break
+            by_family = self._candidates(step)
+            best = _best_family(by_family, self.cv_cur)
+            if best is None:
+                break
+            chosen = [c for c in by_family[best] if c.accepted]
+            for c in chosen:
+                self.specs[c.axis] = c.spec
+                self.cv_cur[c.axis] = c.cv
+            if best != "thermal_lag":
+                self._revisit_lags()
+            taus = [t for s in self.specs.values() for t in (s.tau, s.rate_tau) if t is not None]
+            self.eng.drop_lag_cache(taus)
+            axes = tuple(c.axis for c in chosen)
+            models, _, _ = fit_models(self.eng, self.specs, axes)
+            params = added_parameters(self.eng, models, axes, best, self.specs)
+            self.steps.append(self._step(step, best, chosen, params))
+
+    # -------------------------------------------------------------- one step
+    def _tried(self, family: str, axis: str) -> list[_Tried]:
+        """Every variant of ``family`` on ``axis``, cross-validated."""
+        spec, rules = self.specs[axis], self.rules
+        if family != "thermal_lag":
+            return [
+                (fam, label, self.eng.cv(axis, s.terms(axis)), s)
+                for fam, label, s in variants(
+                    family, axis, spec, self.eng, rules.max_order, rules.extras
+                )
+            ]
+        if spec.tau is not None or spec.rate_tau is not None:
+            return []
+        tried: list[_Tried] = []
+        for variant, what in (("die", "die lag"), ("rate", "rate term")):
+            tau, cv = search.search_tau(self.eng, axis, spec, rules.tau_range_s, variant)
+            tried.append((family, f"{what}, tau {tau:.3g} s", cv, with_tau(spec, variant, tau)))
+        return tried
+
+    def _candidates(self, step: int) -> dict[str, list[Candidate]]:
+        """Return the best variant of every family (``extra:NAME`` separately) on every axis."""
+        by_family: dict[str, list[Candidate]] = {}
+        for family in self.rules.families:
+            for a in AXES:
+                groups: dict[str, list[_Tried]] = {}
+                for o in self._tried(family, a):
+                    groups.setdefault(o[0], []).append(o)
+                for fam, opts in groups.items():
+                    cand = self._judge(step, a, fam, opts)
+                    by_family.setdefault(fam, []).append(cand)
+        return by_family
+
+    def _judge(self, step: int, axis: str, family: str, opts: Sequence[_Tried]) -> Candidate:
+        """Pick the most parsimonious variant within 1 % of the best; test it; record it."""
+        cur = self.cv_cur[axis]
+        best_rms = min(o[2].rms_out for o in opts)
+        _, label, cv, spec = next(o for o in opts if o[2].rms_out <= best_rms * 1.01)
+        cut = 1.0 - cv.rms_out / cur.rms_out if cur.rms_out > 0 else 0.0
+        t, p = paired_test(cur.sse_blocks - cv.sse_blocks)
+        ok = cut >= self.rules.min_improvement and p < self.rules.alpha
+        self.cand_rows.append(
+            {
+                "step": step,
+                "family": family,
+                "axis": axis,
+                "variant": label,
+                "rms_out_before_mg": cur.rms_out,
+                "rms_out_after_mg": cv.rms_out,
+                "cut_pct": 100.0 * cut,
+                "t": t,
+                "p_value": p,
+                "accepted": ok,
+            }
+        )
+        return Candidate(family, axis, label, spec, cv, cut, t, p, ok)
+
+    def _revisit_lags(self) -> None:
+        """Search again the lag of every axis that has one (variant and tau), keep the better."""
+        for a in AXES:
+            if self.specs[a].tau is None and self.specs[a].rate_tau is None:
+                continue
+            bare = replace(self.specs[a], tau=None, rate_tau=None)
+            for variant in ("die", "rate"):
+                tau, cv = search.search_tau(self.eng, a, bare, self.rules.tau_range_s, variant)
+                if cv.rms_out < self.cv_cur[a].rms_out * 0.999:
+                    self.specs[a], self.cv_cur[a] = with_tau(bare, variant, tau), cv
+
+    def _step(
+        self, index: int, effect: str, chosen: Sequence[Candidate], params: list[dict[str, Any]]
+    ) -> Step:
+        """Return the figures of the current models as step ``index``."""
+        eng = self.eng
+        rms_in, rms_out, max_out, max_in = {}, {}, {}, {}
+        fold_axis: dict[str, dict[str, float]] = {name: {} for name in eng.fold_names}
+        for a in AXES:
+            r_in, r_out = eng.residuals(a, self.specs[a].terms(a))
+            rms_in[a] = wrms(r_in, eng.w)
+            rms_out[a] = wrms(r_out, eng.w)
+            max_out[a] = float(np.abs(r_out).max())
+            max_in[a] = float(np.abs(r_in).max())
+            for k, name in enumerate(eng.fold_names):
+                rows = eng.fold_rows[k]
+                if rows.size:
+                    fold_axis[name][a] = wrms(r_out[rows], eng.w[rows])
+        return Step(
+            index,
+            effect,
+            tuple(c.axis for c in chosen),
+            {c.axis: c.variant for c in chosen},
+            params,
+            _pooled(rms_in),
+            max(max_in.values()),
+            _pooled(rms_out),
+            max(max_out.values()),
+            rms_in,
+            rms_out,
+            max_out,
+            fold_axis,
+            {c.axis: c.cut for c in chosen},
+            {c.axis: c.p for c in chosen},
+            {a: self.specs[a].terms(a) for a in AXES},
+        )
+
+
+def _best_family(
+    by_family: Mapping[str, Sequence[Candidate]], cv_cur: Mapping[str, CV]
+) -> str | None:
+    """Return the family that cuts held-out SSE most over the axes accepting it."""
+    best_fam, best_gain = None, 0.0
+    for fam, cands in by_family.items():
+        gain = sum(
+            float(cv_cur[c.axis].sse_blocks.sum() - c.cv.sse_blocks.sum())
+            for c in cands
+            if c.accepted
+        )
+        if gain > best_gain:
+            best_fam, best_gain = fam, gain
+    return best_fam
+
+
+def _pooled(values: Mapping[str, float]) -> float:
+    return math.sqrt(sum(v * v for v in values.values()) / len(values))
+
+
+def diagnose(
+    session: Session,
+    calibration: Calibration | None = None,
+    *,
+    max_steps: int = 4,
+    t_ref_c: float = 25.0,
+    window_c: tuple[float, float] | None = (0.0, 60.0),
+    folds: Literal["auto", "runs", "legs", "blocks"] = "auto",
+    min_improvement: float = 0.10,
+    alpha: float = 0.01,
+    block_s: float = 300.0,
+    max_order: int = 5,
+    tau_range_s: tuple[float, float] = (5.0, 3600.0),
+    families: Sequence[str] = FAMILIES,
+    extras: Sequence[str] | None = None,
+    confound_r: float = 0.95,
+    steady_c_per_min: float = STEADY_C_PER_MIN,
+    n_bins: int = 30,
+    alpha_structure: float = 1e-3,
+    min_structure_mg: float = 0.1,
+) -> Diagnosis:
+    """Find what a calibration model misses and add it, choosing by held-out error only.
+
+    Parameters
+    ----------
+    session : Session
+    calibration : Calibration, optional
+        The model to start from; default ``calibrate(session, t_ref_c=...,
+        window_c=...)`` (the seed paper's model, joint fit). Its ``t_ref_c``
+        and window are used when given.
+    max_steps : int, default 4
+        Most effects to add.
+    t_ref_c : float, default 25
+        Reference temperature (without ``calibration``).
+    window_c : (float, float) or None, default (0, 60)
+        Temperature window of the samples used (without ``calibration``).
+    folds : {"auto", "runs", "legs", "blocks"}, default "auto"
+        Held-out blocks: whole runs (three runs or more that keep every axis
+        identified), legs of the temperature cycle, or thirds of each run.
+    min_improvement : float, default 0.10
+        Least relative cut of an axis' held-out RMS error for an effect to be added.
+    alpha : float, default 0.01
+        Level of the paired one-sided t-test over held-out blocks.
+    block_s : float, default 300
+        Length of the blocks of the paired test, s.
+    max_order : int, default 5
+        Highest order of the curvature families.
+    tau_range_s : (float, float), default (5, 3600)
+        Search range of the lag time constant, s.
+    families : sequence of str, default :data:`FAMILIES`
+        Families of the catalogue to try.
+    extras : sequence of str, optional
+        Extra columns to try (default: every one logged in all runs that varies).
+    confound_r : float, default 0.95
+        Correlation above which two effects are reported as confounded.
+    steady_c_per_min : float, default 0.1
+        Rate below which temperature counts as steady (legs, branch).
+    n_bins : int, default 30
+        Bins of the generic structure check per observable (per run for time).
+    alpha_structure : float, default 1e-3
+        Level of the generic structure check.
+    min_structure_mg : float, default 0.1
+        Smallest structure reported, mg rms.
+
+    Returns
+    -------
+    Diagnosis
+
+    Notes
+    -----
+    Never emits Python warnings; caveats are in :attr:`Diagnosis.warnings`.
+    """
+    _check_options(families, max_steps, min_improvement, alpha)
+    base, specs, notes = _starting_point(session, calibration, t_ref_c, window_c)
+    eng = Engine(session, base, folds=folds, block_s=block_s, steady_c_per_min=steady_c_per_min)
+    usable_extras = _usable_extras(session, eng, extras, notes)
+    warn = confounding(eng, specs, usable_extras, confound_r)
+    warn += notes
+    if eng.n_folds < 2:
+        warn.append("fewer than two held-out folds: nothing can be selected")
+    rules = _Rules(families, usable_extras, max_order, tau_range_s, min_improvement, alpha)
+    selection = _Selection(eng, specs, rules)
+    selection.run(max_steps)
+    improved = _improved_calibration(base, eng, selection.specs, selection.steps)
+    resid = {a: eng.residuals(a, selection.specs[a].terms(a))[0] for a in AXES}
+    found = structures(
+        eng, resid, n_bins=n_bins, alpha=alpha_structure, min_structure_mg=min_structure_mg
+    )
+    options: dict[str, Any] = {
+        "max_steps": max_steps,
+        "t_ref_c": base.t_ref_c,
+        "window_c": list(base.window_c),
+        "folds": folds,
+        "min_improvement": min_improvement,
+        "alpha": alpha,
+        "block_s": block_s,
+        "max_order": max_order,
+        "tau_range_s": list(tau_range_s),
+        "families": list(families),
+        "extras": usable_extras,
+        "confound_r": confound_r,
+        "n_bins": n_bins,
+        "alpha_structure": alpha_structure,
+        "min_structure_mg": min_structure_mg,
+    }
+    return Diagnosis(
+        base=base,
+        calibration=improved,
+        steps=tuple(selection.steps),
+        candidates=pd.DataFrame(selection.cand_rows),
+        structures=tuple(found),
+        warnings=tuple(warn),
+        folds=tuple(eng.fold_names),
+        scheme=eng.scheme,
+        options=options,
+        _engine=eng,
+    )
+
+
+def _check_options(
+    families: Sequence[str], max_steps: int, min_improvement: float, alpha: float
+) -> None:
+    unknown = [f for f in families if f not in FAMILIES]
+    if unknown:
+        raise ParameterError(f"unknown effect families {unknown}; available: {list(FAMILIES)}")
+    if max_steps < 0 or not 0 <= min_improvement < 1 or not 0 < alpha < 1:
+        raise ParameterError("max_steps >= 0, 0 <= min_improvement < 1 and 0 < alpha < 1 needed")
+
+
+def _starting_point(
+    session: Session,
+    calibration: Calibration | None,
+    t_ref_c: float,
+    window_c: tuple[float, float] | None,
+) -> tuple[Calibration, dict[str, Spec], list[str]]:
+    """Return the base calibration, each axis' point in the model space, and notes.
+
+    A given calibration outside the model space (or the seed paper's per-pair
+    method) is replaced by the joint fit of the seed paper's model, with a note.
+    """
+    notes: list[str] = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if calibration is None:
+            base = calibrate(session, t_ref_c=t_ref_c, window_c=window_c)
+        else:
+            base = calibration
+    specs: dict[str, Spec] = {}
+    for a in AXES:
+        if a not in base.axes:
+            raise ParameterError(f"the calibration has no model of axis {a}")
+        spec = spec_from_terms(a, base.axes[a].terms) if base.method != "paper" else None
+        if spec is None:
+            notes.append(
+                f"axis {a}: the starting model is outside the diagnosis' model space "
+                f"(method {base.method}); started from the seed paper's model, joint fit"
+            )
+            spec = Spec()
+        specs[a] = spec
+    if calibration is not None and (
+        base.method == "paper" or any(spec_from_terms(a, base.axes[a].terms) is None for a in AXES)
+    ):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            win = None if not np.all(np.isfinite(base.window_c)) else base.window_c
+            base = calibrate(session, t_ref_c=base.t_ref_c, window_c=win)
+    return base, specs, notes
+
+
+def _usable_extras(
+    session: Session, eng: Engine, extras: Sequence[str] | None, notes: list[str]
+) -> list[str]:
+    """Extra columns to try: those asked for (default all) that are present and vary."""
+    usable = [
+        e
+        for e in (session.extra_columns if extras is None else extras)
+        if e in eng.extras and float(np.nanstd(eng.extras[e])) > 0
+    ]
+    if extras is not None:
+        missing = [e for e in extras if e not in usable]
+        if missing:
+            notes.append(f"extra columns not usable (absent or constant): {', '.join(missing)}")
+    return usable
+
+
+def _improved_calibration(
+    base: Calibration, eng: Engine, specs: Mapping[str, Spec], steps: Sequence[Step]
+) -> Calibration:
+    """Return the calibration of the chosen terms (core least squares), method ``diagnosed``."""
+    models, fixed, fit_notes = fit_models(eng, specs)
+    added = [
+        f"{s.effect} on {','.join(s.axes)} ({'; '.join(s.variant.values())})" for s in steps[1:]
+    ]
+    return Calibration(
+        method="diagnosed",
+        units=base.units,
+        t_ref_c=base.t_ref_c,
+        window_c=base.window_c,
+        temperature_range_c=(float(eng.temperature.min()), float(eng.temperature.max())),
+        axes=models,
+        not_identified=tuple(fixed),
+        notes=(*base.notes, *fit_notes, *(f"diagnosis added {x}" for x in added)),
+        sensor=base.sensor,
+        serial=base.serial,
+        references=dict(eng.references),
+        options={
+            **base.options,
+            "method": "diagnosed",
+            "diagnosis": {"effects": [s.effect for s in steps[1:]], "scheme": eng.scheme},
+        },
+        provenance=dict(base.provenance),
+    )

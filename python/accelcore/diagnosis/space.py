@@ -1,0 +1,133 @@
+"""The model space of the diagnosis: the catalogue's families and the point an axis model is at.
+
+A :class:`Spec` names one axis model of the space (temperature orders of offset and
+gain, the lag, cross-axis gains, drift, extra columns); :meth:`Spec.terms` spells it
+in model terms (:mod:`accelcore.model`), and :func:`spec_from_terms` reads a base
+calibration's terms back into the space.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+from accelcore.model import Term
+
+__all__ = ["FAMILIES", "Spec", "spec_from_terms", "with_tau"]
+
+#: Candidate effect families of the catalogue, in the order they are tried.
+FAMILIES = (
+    "offset_curvature",
+    "sensitivity_curvature",
+    "thermal_lag",
+    "misalignment",
+    "drift",
+    "extra",
+)
+
+
+@dataclass(frozen=True)
+class Spec:
+    """A point of the model space of one axis.
+
+    Attributes
+    ----------
+    tau : float or None
+        Time constant of the die lag (s): every ``dT^k`` basis becomes ``lag(tau):dT^k``.
+    rate_tau : float or None
+        Time constant of the rate term, an offset ``lag(rate_tau):dT^1`` beside ``dT^1``.
+    offset_order, gain_order : int
+        Highest temperature power of the offset and of the own-axis gain.
+    cross : tuple of str
+        Axes whose gravity enters as cross-axis gain (misalignment).
+    drift : bool
+        Offset linear in elapsed time.
+    extras : tuple of str
+        Extra columns entering as linear offsets.
+    """
+
+    tau: float | None = None
+    rate_tau: float | None = None
+    offset_order: int = 1
+    gain_order: int = 1
+    cross: tuple[str, ...] = ()
+    drift: bool = False
+    extras: tuple[str, ...] = ()
+
+    def temp_basis(self, k: int) -> str:
+        """Return the name of the ``k``-th temperature basis (lagged with ``tau``)."""
+        return f"dT^{k}" if self.tau is None else f"lag({self.tau:.6g}):dT^{k}"
+
+    def terms(self, axis: str) -> tuple[Term, ...]:
+        """Return the model terms of ``axis`` at this point, each tagged with its effect."""
+        out = [Term("offset", "1")]
+        for k in range(1, self.offset_order + 1):
+            eff = "base" if k == 1 else "offset_curvature"
+            out.append(Term("offset", self.temp_basis(k), effect=eff))
+        if self.rate_tau is not None:
+            out.append(Term("offset", f"lag({self.rate_tau:.6g}):dT^1", effect="thermal_lag"))
+        out.append(Term("gain", "1", source=axis))
+        for k in range(1, self.gain_order + 1):
+            eff = "base" if k == 1 else "sensitivity_curvature"
+            out.append(Term("gain", self.temp_basis(k), source=axis, effect=eff))
+        out += [Term("gain", "1", source=b, effect="misalignment") for b in self.cross]
+        if self.drift:
+            out.append(Term("offset", "elapsed_h", effect="drift"))
+        out += [Term("offset", f"extra:{e}", effect="extra") for e in self.extras]
+        if self.tau is not None:
+            out = [
+                replace(t, effect="thermal_lag")
+                if t.basis.startswith("lag(") and t.effect == "base"
+                else t
+                for t in out
+            ]
+        return tuple(out)
+
+
+def spec_from_terms(axis: str, terms: Sequence[Term]) -> Spec | None:
+    """Return the spec a base calibration's terms correspond to (None: outside the space)."""
+    spec = Spec(offset_order=0, gain_order=0)
+    has = set()
+    plain = {t.basis for t in terms if t.kind == "offset"}
+    for t in terms:
+        basis = t.basis
+        if basis.startswith("lag(") and t.kind == "offset" and "dT^1" in plain:
+            if basis.endswith(":dT^1") and spec.rate_tau is None:
+                spec = replace(spec, rate_tau=float(basis[4 : basis.index(")")]))
+                continue
+            return None
+        if basis.startswith("lag("):
+            tau = float(basis[4 : basis.index(")")])
+            if spec.tau is not None and spec.tau != tau:
+                return None
+            spec = replace(spec, tau=tau)
+            basis = basis[basis.index(":") + 1 :]
+        if basis == "1":
+            has.add((t.kind, t.source))
+            if t.kind == "gain" and t.source != axis:
+                spec = replace(spec, cross=(*spec.cross, str(t.source)))
+            continue
+        if basis.startswith("dT^"):
+            k = int(basis[3:])
+            if t.kind == "offset":
+                spec = replace(spec, offset_order=max(spec.offset_order, k))
+            elif t.source == axis:
+                spec = replace(spec, gain_order=max(spec.gain_order, k))
+            else:
+                return None
+        elif basis == "elapsed_h" and t.kind == "offset":
+            spec = replace(spec, drift=True)
+        elif basis.startswith("extra:") and t.kind == "offset":
+            spec = replace(spec, extras=(*spec.extras, basis[6:]))
+        else:
+            return None
+    if ("offset", None) not in has or ("gain", axis) not in has:
+        return None
+    if spec.offset_order < 1 or spec.gain_order < 1:
+        return None
+    return spec
+
+
+def with_tau(spec: Spec, variant: str, tau: float) -> Spec:
+    """Return ``spec`` with a die lag (``variant="die"``) or a rate term (else), time ``tau``."""
+    return replace(spec, tau=tau) if variant == "die" else replace(spec, rate_tau=tau)

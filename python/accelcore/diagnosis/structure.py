@@ -1,0 +1,129 @@
+"""The generic structure check: the residual binned by every observable, against its noise.
+
+After the last step, the residual of each axis is binned by temperature, dT/dt,
+elapsed time within each run and each extra column; the binned means are compared with
+their white-noise standard errors (chi-square). Structure that no added term explains
+is reported as a :class:`~accelcore.diagnosis.result.Structure`, naming the observable
+(and the period of a periodic structure in time).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
+from accelcore.model import AXES
+
+from .engine import Engine
+from .result import Structure
+from .stats import chi2_sf
+
+__all__ = ["structures"]
+
+FloatArray = NDArray[np.float64]
+
+
+def structures(
+    eng: Engine,
+    resid: Mapping[str, FloatArray],
+    *,
+    n_bins: int,
+    alpha: float,
+    min_structure_mg: float,
+) -> list[Structure]:
+    """Bin the residual by each observable and test the binned means (generic check)."""
+    obs: dict[str, tuple[FloatArray, bool]] = {
+        "temperature_c": (eng.temperature, False),
+        "dtemp_dt_c_per_min": (eng.rate, False),
+        "elapsed_s": (eng.elapsed_s, True),
+    }
+    for name, values in eng.extras.items():
+        if np.nanstd(values) > 0:
+            obs[name] = (values, False)
+    out: list[Structure] = []
+    part = eng.sample_part
+    for a in AXES:
+        r = resid[a]
+        same = part[1:] == part[:-1]
+        d = np.diff(r)[same]
+        sigma = math.sqrt(float(np.mean(d * d)) / 2.0) if d.size else math.nan
+        if not sigma > 0:
+            continue
+        # Pooled observables are binned within each gravity value of the axis, so that
+        # structure proportional to gravity (opposite in opposite orientations) shows.
+        grav_group = np.unique(eng.gravity[:, AXES.index(a)], return_inverse=True)[1]
+        for name, (x, per_run) in obs.items():
+            groups = eng.sample_run if per_run else grav_group.astype(np.int64)
+            bins = _bin_ids(x, groups, n_bins, per_run)
+            chi2, dof, n_used = _binned_chi2(r, bins, sigma)
+            if dof < 1:
+                continue
+            p = chi2_sf(chi2, dof)
+            rms = sigma * math.sqrt(max(chi2 - dof, 0.0) / n_used)
+            note = ""
+            sig = p < alpha and rms >= min_structure_mg
+            if sig and per_run:
+                note = _period_note(eng, r, sigma)
+            out.append(Structure(a, name, chi2, dof, p, rms, sigma, bool(sig), note))
+    return out
+
+
+def _bin_ids(
+    x: FloatArray, groups: NDArray[np.int64], n_bins: int, uniform: bool
+) -> NDArray[np.int64]:
+    """Bin index per sample: within each group, quantile bins or (time) uniform bins."""
+    ids = np.zeros(x.size, dtype=np.int64)
+    offset = 0
+    for g in np.unique(groups):
+        sel = groups == g
+        xs = x[sel]
+        if uniform:
+            width = max(float(xs.max() - xs.min()) / n_bins, 60.0)
+            local = np.floor((xs - xs.min()) / width).astype(np.int64)
+        else:
+            edges = np.unique(np.quantile(xs, np.linspace(0, 1, n_bins + 1)))
+            local = np.clip(np.searchsorted(edges, xs, side="right") - 1, 0, max(edges.size - 2, 0))
+        ids[sel] = local + offset
+        offset += int(local.max()) + 1
+    return ids
+
+
+def _binned_chi2(r: FloatArray, bins: NDArray[np.int64], sigma: float) -> tuple[float, int, int]:
+    counts = np.bincount(bins)
+    sums = np.bincount(bins, weights=r)
+    ok = counts >= 10
+    if ok.sum() < 2:
+        return 0.0, 0, 0
+    n = counts[ok].astype(np.float64)
+    means = sums[ok] / n
+    grand = float((means * n).sum() / n.sum())
+    chi2 = float((n * (means - grand) ** 2).sum()) / (sigma * sigma)
+    return chi2, int(ok.sum()) - 1, int(n.sum())
+
+
+def _period_note(eng: Engine, r: FloatArray, sigma: float) -> str:
+    """Strongest period of the residual in time (periodogram over the parts)."""
+    t = eng.elapsed_s
+    spans = [float(np.ptp(t[eng.sample_run == r])) for r in np.unique(eng.sample_run)]
+    span = max(spans)
+    if span < 900:
+        return ""
+    # At least three cycles inside the longest run.
+    periods = np.geomspace(120.0, span / 3.0, 160)
+    power = np.zeros(periods.size)
+    for run in np.unique(eng.sample_run):
+        sel = eng.sample_run == run
+        rp = r[sel] - r[sel].mean()
+        tp = t[sel]
+        phase = np.exp(-2j * np.pi * tp[None, :] / periods[:, None])
+        power += np.abs(phase @ rp) ** 2
+    power /= r.size * sigma * sigma
+    k = int(np.argmax(power))
+    near = (periods >= periods[k] / 2) & (periods <= periods[k] * 2)
+    # A sharp, isolated peak: well above the noise and above the spectrum around it.
+    if power[k] < 30.0 or power[k] < 4.0 * float(np.median(power[near])):
+        return ""
+    return f"periodic, strongest period ≈ {periods[k] / 60:.1f} min"
