@@ -20,6 +20,7 @@ from accelcore.errors import AccelcoreError
 from accelcore.fitting.calibrate import calibrate
 from accelcore.input.session import Session, load_session
 from accelcore.outputs import plots
+from accelcore.outputs.diagnosis_plot import plot_diagnosis
 from accelcore.outputs.report.html import (
     escape,
     figure_html,
@@ -77,9 +78,9 @@ def _paired_figure(session: Session, cal: Calibration, kind: str) -> str:
 def _residual_figure(diag: Diagnosis) -> str:
     import matplotlib.pyplot as plt  # optional: the [plot] extra
 
-    fig = diag.plot()
+    fig = plot_diagnosis(diag)
     try:
-        obs = diag._default_observable()
+        obs = diag.default_observable
         return figure_html(
             fig,
             "Residual error (mg) of the base model (left) and the diagnosed model (right), "
