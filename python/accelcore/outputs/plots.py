@@ -31,11 +31,10 @@ from accelcore.constants import AXES
 from accelcore.constants import DELIMITERS as _DELIMITERS
 from accelcore.input.session import Run, Session
 from accelcore.model import Constant
+from accelcore.result.calibration import AxisModel, Calibration
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
-
-    from accelcore.result.calibration import AxisModel, Calibration
 
 __all__ = [
     "plot_offset_vs_temperature",

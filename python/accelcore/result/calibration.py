@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from accelcore import datasheets
 from accelcore._accelcore import compensate as _compensate
 from accelcore._accelcore import first_order_lag
 from accelcore.constants import STANDARD_GRAVITY
@@ -64,8 +65,6 @@ def nominal_sensitivity(units: str, sensor: str | None) -> tuple[float, float, f
     if units == "m/s2":
         return (STANDARD_GRAVITY,) * 3
     if sensor:
-        from accelcore import datasheets
-
         try:
             sheet = datasheets.load(sensor)
         except (KeyError, ValueError):
@@ -324,8 +323,6 @@ class Calibration:
             ``table`` is ``"at T_ref"`` (Tables 3/4) or ``"temperature coefficients"``
             (Tables 5/6).
         """
-        from accelcore import datasheets
-
         if sheet is None or isinstance(sheet, str):
             name = sheet or self.sensor
             if not name:
