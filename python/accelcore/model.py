@@ -7,20 +7,22 @@ The output of axis ``a`` (in session units) is modelled as::
 where ``g_b`` is the gravity (in g) on axis ``b`` that the run's orientation
 implies and ``B`` a *basis*: a named function of the sample's observables. The
 basis names are a small grammar, so a model can be saved, loaded and extended
-by later effects without new code paths:
+by later effects without new code paths. Each name is parsed once, where it
+enters (a :class:`Term`, a calibration file), into a typed :class:`Basis` value;
+code then asks the value what it is instead of splitting strings:
 
-``1``
+``1`` (:class:`Constant`)
     constant;
-``dT^k``
+``dT^k`` (:class:`TemperaturePower`)
     ``(T - t_ref_c)^k``, °C^k (curvature for k >= 2);
-``lag(tau):dT^k``
+``lag(tau):dT^k`` (:class:`LaggedTemperaturePower`)
     the same with the temperature passed through a first-order lag of
     ``tau`` seconds (the die trailing the logged probe);
-``dTdt``
+``dTdt`` (:class:`TemperatureRate`)
     rate of change of temperature, °C/min (causal, smoothed over 60 s);
-``elapsed_h``
+``elapsed_h`` (:class:`Elapsed`)
     time since the start of the run, hours (drift);
-``extra:NAME``
+``extra:NAME`` (:class:`Extra`)
     an extra logged column, minus its reference value stored in the model.
 
 The base model of the seed paper is, on each axis, offset ``1``, ``dT^1`` and
@@ -30,10 +32,12 @@ temperature.
 
 from __future__ import annotations
 
+import math
 import re
+from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,78 +49,21 @@ from accelcore.errors import ParameterError
 __all__ = [
     "AXES",
     "DTDT_SMOOTHING_S",
+    "Basis",
+    "Constant",
+    "Elapsed",
+    "Extra",
     "Features",
+    "LaggedTemperaturePower",
+    "TemperaturePower",
+    "TemperatureRate",
     "Term",
     "base_terms",
+    "design_columns",
     "evaluate_basis",
 ]
 
-
-_POLY = re.compile(r"^dT\^([1-9])$")
-_LAG = re.compile(r"^lag\(([0-9.eE+-]+)\):dT\^([1-9])$")
-
-
-@dataclass(frozen=True)
-class Term:
-    """One named term of an axis model.
-
-    Parameters
-    ----------
-    kind : {"offset", "gain"}
-        An offset term adds ``c·B``; a gain term adds ``c·B·g_source``.
-    basis : str
-        The basis name (see the module docs).
-    source : str or None
-        For gain terms, the axis whose gravity it multiplies (own axis:
-        sensitivity; another axis: misalignment or cross-axis sensitivity).
-    effect : str
-        The effect that introduced the term (``base``, ``curvature``, ...).
-    """
-
-    kind: Literal["offset", "gain"]
-    basis: str
-    source: str | None = None
-    effect: str = "base"
-
-    @property
-    def name(self) -> str:
-        """Readable name, e.g. ``offset·dT^1`` or ``gain[y]·1``."""
-        if self.kind == "offset":
-            return f"offset·{self.basis}"
-        return f"gain[{self.source}]·{self.basis}"
-
-    def to_dict(self) -> dict[str, str | None]:
-        """Plain-data form for JSON."""
-        return {
-            "kind": self.kind,
-            "basis": self.basis,
-            "source": self.source,
-            "effect": self.effect,
-        }
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, object]) -> Term:
-        """Inverse of :meth:`to_dict`."""
-        kind = data["kind"]
-        if kind != "offset" and kind != "gain":
-            raise ParameterError(f"unknown term kind {kind!r}")
-        source = data.get("source")
-        return cls(
-            kind=kind,
-            basis=str(data["basis"]),
-            source=None if source is None else str(source),
-            effect=str(data.get("effect", "base")),
-        )
-
-
-def base_terms(axis: str) -> tuple[Term, ...]:
-    """Return the seed paper's model of one axis: offset and sensitivity, linear in T."""
-    return (
-        Term("offset", "1"),
-        Term("offset", "dT^1"),
-        Term("gain", "1", source=axis),
-        Term("gain", "dT^1", source=axis),
-    )
+FloatArray = NDArray[np.float64]
 
 
 @dataclass
@@ -135,21 +82,21 @@ class Features:
         Reference temperature of ``dT``.
     """
 
-    temperature_c: NDArray[np.float64]
-    time_s: NDArray[np.float64] | None
-    extras: Mapping[str, NDArray[np.float64]]
+    temperature_c: FloatArray
+    time_s: FloatArray | None
+    extras: Mapping[str, FloatArray]
     t_ref_c: float
-    _lag_cache: dict[float, NDArray[np.float64]] = field(default_factory=dict, repr=False)
+    _lag_cache: dict[float, FloatArray] = field(default_factory=dict, repr=False)
 
     def __len__(self) -> int:
         return int(self.temperature_c.shape[0])
 
-    def _need_time(self, basis: str) -> NDArray[np.float64]:
+    def _need_time(self, basis: str) -> FloatArray:
         if self.time_s is None:
             raise ParameterError(f"the model term basis {basis!r} needs time_s")
         return self.time_s
 
-    def lagged_temperature_c(self, tau_s: float) -> NDArray[np.float64]:
+    def lagged_temperature_c(self, tau_s: float) -> FloatArray:
         """Temperature through a first-order lag of ``tau_s`` seconds (cached)."""
         if tau_s not in self._lag_cache:
             time_s = self._need_time(f"lag({tau_s})")
@@ -157,15 +104,321 @@ class Features:
         return self._lag_cache[tau_s]
 
 
+# ---------------------------------------------------------------------- bases
+class Basis(ABC):
+    """A named function of a sample's observables; one column of the design per term.
+
+    Bases are small immutable values: equal when they mean the same function,
+    hashable, written to files as their :attr:`name` (the grammar in the module
+    docs) and read back with :meth:`parse`. Code asks a basis what it is
+    (:attr:`temperature_order`, :attr:`lag_s`, :attr:`stateful`, ...) instead of
+    splitting its name.
+    """
+
+    #: True when the value at a sample depends on earlier samples or on the run's
+    #: start (lag filters, dT/dt, elapsed time): compensation then carries state.
+    stateful: ClassVar[bool] = False
+
+    @property
+    @abstractmethod
+    def name(self) -> str:
+        """The basis' name in the model grammar (what files store)."""
+
+    @abstractmethod
+    def evaluate(
+        self, features: Features, references: Mapping[str, float] | None = None
+    ) -> FloatArray:
+        """Value at every sample of ``features`` (float64, one per sample)."""
+
+    @property
+    def temperature_order(self) -> int | None:
+        """``k`` of a ``(T - t_ref)^k`` basis (lagged or not), else None."""
+        return None
+
+    @property
+    def lag_s(self) -> float | None:
+        """Time constant of the temperature lag, s (None when the basis has none)."""
+        return None
+
+    @property
+    def column(self) -> str | None:
+        """Name of the extra logged column the basis reads, else None."""
+        return None
+
+    def without_lag(self) -> Basis:
+        """Return the same basis on the logged temperature (itself when it has no lag)."""
+        return self
+
+    def __str__(self) -> str:
+        return self.name
+
+    @staticmethod
+    def parse(text: str | Basis) -> Basis:
+        """Read a basis from its name (module docs); a Basis is returned as it is.
+
+        Raises
+        ------
+        ParameterError
+            The name is not in the grammar.
+        """
+        if isinstance(text, Basis):
+            return text
+        if not isinstance(text, str):
+            raise ParameterError(f"a model basis is a name, got {type(text).__name__}")
+        if text == "1":
+            return Constant()
+        m = _POLY.match(text)
+        if m:
+            return TemperaturePower(int(m.group(1)))
+        m = _LAG.match(text)
+        if m:
+            return LaggedTemperaturePower(float(m.group(1)), int(m.group(2)))
+        if text == "dTdt":
+            return TemperatureRate()
+        if text == "elapsed_h":
+            return Elapsed()
+        if text.startswith("extra:") and len(text) > len("extra:"):
+            return Extra(text[len("extra:") :])
+        raise ParameterError(f"unknown basis {text!r}")
+
+
+_POLY = re.compile(r"^dT\^([1-9])$")
+_LAG = re.compile(r"^lag\(([0-9.eE+-]+)\):dT\^([1-9])$")
+
+
+@dataclass(frozen=True)
+class Constant(Basis):
+    """``1``: the constant (offset at T_ref, or sensitivity with a gain term)."""
+
+    @property
+    def name(self) -> str:  # noqa: D102
+        return "1"
+
+    def evaluate(  # noqa: D102
+        self, features: Features, references: Mapping[str, float] | None = None
+    ) -> FloatArray:
+        return np.ones(len(features))
+
+
+@dataclass(frozen=True)
+class TemperaturePower(Basis):
+    """``dT^k``: ``(T - t_ref_c)^k`` in °C^k (k = 1 linear tempco, k >= 2 curvature)."""
+
+    order: int
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.order <= 9:
+            raise ParameterError(f"temperature order must be 1..9, got {self.order}")
+
+    @property
+    def name(self) -> str:  # noqa: D102
+        return f"dT^{self.order}"
+
+    @property
+    def temperature_order(self) -> int:  # noqa: D102
+        return self.order
+
+    def evaluate(  # noqa: D102
+        self, features: Features, references: Mapping[str, float] | None = None
+    ) -> FloatArray:
+        return np.asarray((features.temperature_c - features.t_ref_c) ** self.order)
+
+
+@dataclass(frozen=True)
+class LaggedTemperaturePower(Basis):
+    """``lag(tau):dT^k``: ``dT^k`` of the temperature through a first-order lag of tau s."""
+
+    tau_s: float
+    order: int
+
+    stateful: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        # The basis is what its name says: tau to the 6 significant digits files keep,
+        # so a model evaluates the same before and after a save and load.
+        if not (math.isfinite(self.tau_s) and self.tau_s > 0.0):
+            raise ParameterError(f"a lag time constant must be positive, s; got {self.tau_s}")
+        object.__setattr__(self, "tau_s", float(f"{self.tau_s:.6g}"))
+        if not 1 <= self.order <= 9:
+            raise ParameterError(f"temperature order must be 1..9, got {self.order}")
+
+    @property
+    def name(self) -> str:  # noqa: D102
+        return f"lag({self.tau_s:.6g}):dT^{self.order}"
+
+    @property
+    def temperature_order(self) -> int:  # noqa: D102
+        return self.order
+
+    @property
+    def lag_s(self) -> float:  # noqa: D102
+        return self.tau_s
+
+    def without_lag(self) -> Basis:  # noqa: D102
+        return TemperaturePower(self.order)
+
+    def evaluate(  # noqa: D102
+        self, features: Features, references: Mapping[str, float] | None = None
+    ) -> FloatArray:
+        lagged = features.lagged_temperature_c(self.tau_s)
+        return np.asarray((lagged - features.t_ref_c) ** self.order)
+
+
+@dataclass(frozen=True)
+class TemperatureRate(Basis):
+    """``dTdt``: rate of change of temperature, °C/min (causal, smoothed over 60 s)."""
+
+    stateful: ClassVar[bool] = True
+
+    @property
+    def name(self) -> str:  # noqa: D102
+        return "dTdt"
+
+    def evaluate(  # noqa: D102
+        self, features: Features, references: Mapping[str, float] | None = None
+    ) -> FloatArray:
+        lagged = features.lagged_temperature_c(DTDT_SMOOTHING_S)
+        return np.asarray((features.temperature_c - lagged) / DTDT_SMOOTHING_S * 60.0)
+
+
+@dataclass(frozen=True)
+class Elapsed(Basis):
+    """``elapsed_h``: time since the start of the run, hours (drift)."""
+
+    stateful: ClassVar[bool] = True
+
+    @property
+    def name(self) -> str:  # noqa: D102
+        return "elapsed_h"
+
+    def evaluate(  # noqa: D102
+        self, features: Features, references: Mapping[str, float] | None = None
+    ) -> FloatArray:
+        return features._need_time(self.name) / 3600.0
+
+
+@dataclass(frozen=True)
+class Extra(Basis):
+    """``extra:NAME``: an extra logged column minus its reference value (kept in the model)."""
+
+    column_name: str
+
+    @property
+    def name(self) -> str:  # noqa: D102
+        return f"extra:{self.column_name}"
+
+    @property
+    def column(self) -> str:  # noqa: D102
+        return self.column_name
+
+    def evaluate(  # noqa: D102
+        self, features: Features, references: Mapping[str, float] | None = None
+    ) -> FloatArray:
+        if self.column_name not in features.extras:
+            name = self.column_name
+            raise ParameterError(
+                f"the model uses the extra column {name!r}, which the data does not have"
+            )
+        ref = (references or {}).get(self.name, 0.0)
+        return np.asarray(features.extras[self.column_name], dtype=np.float64) - ref
+
+
+# ---------------------------------------------------------------------- terms
+@dataclass(frozen=True)
+class Term:
+    """One named term of an axis model.
+
+    Parameters
+    ----------
+    kind : {"offset", "gain"}
+        An offset term adds ``c·B``; a gain term adds ``c·B·g_source``.
+    basis : Basis or str
+        The basis (a name in the module's grammar is parsed once, here).
+    source : str or None
+        For gain terms, the axis whose gravity it multiplies (own axis:
+        sensitivity; another axis: misalignment or cross-axis sensitivity).
+    effect : str
+        The effect that introduced the term (``base``, ``curvature``, ...).
+    """
+
+    kind: Literal["offset", "gain"]
+    basis: Basis
+    source: str | None = None
+    effect: str = "base"
+
+    def __init__(
+        self,
+        kind: Literal["offset", "gain"],
+        basis: Basis | str,
+        source: str | None = None,
+        effect: str = "base",
+    ) -> None:
+        if kind != "offset" and kind != "gain":
+            raise ParameterError(f"unknown term kind {kind!r}")
+        if kind == "gain" and source not in AXES:
+            raise ParameterError(f"a gain term needs a source axis x, y or z, got {source!r}")
+        object.__setattr__(self, "kind", kind)
+        object.__setattr__(self, "basis", Basis.parse(basis))
+        object.__setattr__(self, "source", source if kind == "gain" else None)
+        object.__setattr__(self, "effect", effect)
+
+    @property
+    def name(self) -> str:
+        """Readable name, e.g. ``offset·dT^1`` or ``gain[y]·1``."""
+        if self.kind == "offset":
+            return f"offset·{self.basis}"
+        return f"gain[{self.source}]·{self.basis}"
+
+    def column(self, basis_values: FloatArray, gravity_g: FloatArray) -> FloatArray:
+        """Return the design column: the basis values, times gravity in g (3,) or (n, 3) if gain."""
+        if self.kind == "offset":
+            return basis_values
+        g = np.asarray(gravity_g)
+        return basis_values * g[..., AXES.index(self.source or "x")]
+
+    def to_dict(self) -> dict[str, str | None]:
+        """Plain-data form for JSON."""
+        return {
+            "kind": self.kind,
+            "basis": self.basis.name,
+            "source": self.source,
+            "effect": self.effect,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, object]) -> Term:
+        """Inverse of :meth:`to_dict` (the basis name is checked against the grammar)."""
+        kind = data["kind"]
+        if kind != "offset" and kind != "gain":
+            raise ParameterError(f"unknown term kind {kind!r}")
+        source = data.get("source")
+        return cls(
+            kind=kind,
+            basis=str(data["basis"]),
+            source=None if source is None else str(source),
+            effect=str(data.get("effect", "base")),
+        )
+
+
+def base_terms(axis: str) -> tuple[Term, ...]:
+    """Return the seed paper's model of one axis: offset and sensitivity, linear in T."""
+    return (
+        Term("offset", Constant()),
+        Term("offset", TemperaturePower(1)),
+        Term("gain", Constant(), source=axis),
+        Term("gain", TemperaturePower(1), source=axis),
+    )
+
+
 def evaluate_basis(
-    basis: str, features: Features, references: Mapping[str, float] | None = None
-) -> NDArray[np.float64]:
+    basis: Basis | str, features: Features, references: Mapping[str, float] | None = None
+) -> FloatArray:
     """Evaluate one basis on a stretch of samples.
 
     Parameters
     ----------
-    basis : str
-        Basis name (module docs).
+    basis : Basis or str
+        The basis, or its name (module docs).
     features : Features
         The samples' observables.
     references : mapping, optional
@@ -175,38 +428,15 @@ def evaluate_basis(
     -------
     ndarray of float64
     """
-    n = len(features)
-    if basis == "1":
-        return np.ones(n)
-    m = _POLY.match(basis)
-    if m:
-        return (features.temperature_c - features.t_ref_c) ** int(m.group(1))
-    m = _LAG.match(basis)
-    if m:
-        tau = float(m.group(1))
-        return (features.lagged_temperature_c(tau) - features.t_ref_c) ** int(m.group(2))
-    if basis == "dTdt":
-        lagged = features.lagged_temperature_c(DTDT_SMOOTHING_S)
-        return (features.temperature_c - lagged) / DTDT_SMOOTHING_S * 60.0
-    if basis == "elapsed_h":
-        return features._need_time(basis) / 3600.0
-    if basis.startswith("extra:"):
-        name = basis[len("extra:") :]
-        if name not in features.extras:
-            raise ParameterError(
-                f"the model uses the extra column {name!r}, which the data does not have"
-            )
-        ref = (references or {}).get(basis, 0.0)
-        return np.asarray(features.extras[name], dtype=np.float64) - ref
-    raise ParameterError(f"unknown basis {basis!r}")
+    return Basis.parse(basis).evaluate(features, references)
 
 
 def design_columns(
     terms: Sequence[Term],
     features: Features,
-    gravity_g: NDArray[np.float64],
+    gravity_g: FloatArray,
     references: Mapping[str, float] | None = None,
-) -> NDArray[np.float64]:
+) -> FloatArray:
     """Design matrix of one axis over a stretch with constant gravity ``gravity_g`` (3,).
 
     Returns
@@ -215,12 +445,9 @@ def design_columns(
     """
     n = len(features)
     out = np.empty((n, len(terms)))
-    cache: dict[str, NDArray[np.float64]] = {}
+    cache: dict[Basis, FloatArray] = {}
     for j, term in enumerate(terms):
         if term.basis not in cache:
-            cache[term.basis] = evaluate_basis(term.basis, features, references)
-        column = cache[term.basis]
-        if term.kind == "gain":
-            column = column * gravity_g[AXES.index(term.source or "x")]
-        out[:, j] = column
+            cache[term.basis] = term.basis.evaluate(features, references)
+        out[:, j] = term.column(cache[term.basis], gravity_g)
     return out

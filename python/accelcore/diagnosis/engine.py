@@ -26,7 +26,7 @@ from accelcore.core import LeastSquares
 from accelcore.errors import InsufficientDataError, ParameterError, SingularSystemError
 from accelcore.fitting.calibrate import CutFeatures, Stacked, block_weights
 from accelcore.input.session import Session
-from accelcore.model import AXES, Features, Term, design_columns
+from accelcore.model import AXES, Basis, Constant, Features, Term, design_columns
 from accelcore.result.calibration import Calibration, nominal_sensitivity
 
 from .observables import leg_labels, rate_c_per_min
@@ -119,7 +119,7 @@ class Engine:
             name: np.concatenate([np.asarray(f.extras[name]) for f in feats])
             for name in session.extra_columns
         }
-        self._basis_cache: dict[str, FloatArray] = {}
+        self._basis_cache: dict[Basis, FloatArray] = {}
         # Blocks: contiguous stretches of at most block_s inside one part.
         starts: list[int] = []
         block_part: list[int] = []
@@ -176,7 +176,8 @@ class Engine:
             c_off, _ = m.value("offset", "1")
             y -= c_off
             if not any(
-                term.kind == "gain" and term.basis == "1" and term.source == a for term, _ in fixed
+                term.kind == "gain" and term.basis == Constant() and term.source == a
+                for term, _ in fixed
             ):
                 y -= s0 * self.gravity[:, a_i]
             self.y[a] = y * (1000.0 / self.scale[a])
@@ -233,23 +234,24 @@ class Engine:
         return block_fold
 
     # -------------------------------------------------------------- columns
-    def basis(self, name: str) -> FloatArray:
+    def basis(self, basis: Basis | str) -> FloatArray:
         """Return the column of a basis (e.g. ``dT^2``, ``lag(60):dT^1``) over every sample."""
-        if name not in self._basis_cache:
-            one = Term("offset", name)
-            self._basis_cache[name] = np.concatenate(
+        key = Basis.parse(basis)
+        if key not in self._basis_cache:
+            one = Term("offset", key)
+            self._basis_cache[key] = np.concatenate(
                 [
                     design_columns((one,), f, g, self.references)[:, 0]
                     for f, g in zip(self.data.features, self.data.gravity, strict=True)
                 ]
             )
-        return self._basis_cache[name]
+        return self._basis_cache[key]
 
     def drop_lag_cache(self, keep: Sequence[float]) -> None:
         """Forget the cached lagged bases except those of the time constants ``keep``."""
-        keep_s = {f"lag({k:.6g})" for k in keep}
+        keep_s = {f"{k:.6g}" for k in keep}
         for key in list(self._basis_cache):
-            if key.startswith("lag(") and key.split(":")[0] not in keep_s:
+            if key.lag_s is not None and f"{key.lag_s:.6g}" not in keep_s:
                 del self._basis_cache[key]
 
     def column(self, term: Term) -> FloatArray:
@@ -262,9 +264,8 @@ class Engine:
     def free_terms(self, axis: str, terms: Sequence[Term]) -> tuple[Term, ...]:
         """Terms minus those the base held fixed (matched ignoring lag)."""
 
-        def key(t: Term) -> tuple[str, str, str | None]:
-            basis = t.basis.split(":", 1)[1] if t.basis.startswith("lag(") else t.basis
-            return t.kind, basis, t.source if t.kind == "gain" else None
+        def key(t: Term) -> tuple[str, Basis, str | None]:
+            return t.kind, t.basis.without_lag(), t.source if t.kind == "gain" else None
 
         fixed = {key(t) for t, _ in self.fixed[axis]}
         return tuple(t for t in terms if key(t) not in fixed)

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from accelcore.fitting.calibrate import fit_axis
-from accelcore.model import AXES
+from accelcore.model import AXES, Elapsed, LaggedTemperaturePower
 from accelcore.result.calibration import AxisModel, nominal_sensitivity
 
 from .engine import Engine
@@ -45,7 +45,7 @@ def added_parameters(
             )
             if spec.rate_tau is not None:
                 # offset c·(T_lag - T_ref) beside c1·(T - T_ref): c·(T_lag - T) ≈ -c·tau·dT/dt.
-                c, se = m.value("offset", f"lag({spec.rate_tau:.6g}):dT^1")
+                c, se = m.value("offset", LaggedTemperaturePower(spec.rate_tau, 1))
                 k = -spec.rate_tau / 60.0 * 1000.0 / s
                 out.append(
                     {
@@ -62,17 +62,18 @@ def added_parameters(
         ):
             if t.effect != (family if not family.startswith("extra:") else "extra"):
                 continue
-            if family.startswith("extra:") and t.basis != family:
+            if family.startswith("extra:") and t.basis.name != family:
                 continue
             se = math.sqrt(max(float(var), 0.0)) if est else math.nan
-            basis = t.basis.split(":", 1)[1] if t.basis.startswith("lag(") else t.basis
+            order = t.basis.temperature_order
             if t.kind == "offset":
-                unit = {"elapsed_h": "mg/h"}.get(
-                    basis, "mg/°C^" + basis[3:] if basis.startswith("dT^") else "mg/unit"
-                )
+                if isinstance(t.basis, Elapsed):
+                    unit = "mg/h"
+                else:
+                    unit = f"mg/°C^{order}" if order is not None else "mg/unit"
                 factor = 1000.0 / s
             elif t.source == a:
-                unit, factor = "%/°C^" + basis[3:], 100.0 / s
+                unit, factor = f"%/°C^{order or ''}", 100.0 / s
             else:
                 unit, factor = "deg", math.degrees(1.0) / s
             out.append(

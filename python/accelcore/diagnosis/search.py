@@ -15,7 +15,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore.model import AXES
+from accelcore.model import AXES, Elapsed, Extra, LaggedTemperaturePower, TemperaturePower
 
 from .engine import CV, Engine
 from .space import Spec, with_tau
@@ -119,18 +119,19 @@ def confounding(
     for a in AXES:
         a_i = AXES.index(a)
         sig: dict[str, FloatArray] = {
-            "temperature (linear tempco)": eng.basis("dT^1"),
-            "offset_curvature": eng.basis("dT^2"),
-            "thermal_lag": eng.basis(f"lag({_CONFOUND_TAU_S:g}):dT^1") - eng.basis("dT^1"),
-            "drift": eng.basis("elapsed_h"),
+            "temperature (linear tempco)": eng.basis(TemperaturePower(1)),
+            "offset_curvature": eng.basis(TemperaturePower(2)),
+            "thermal_lag": eng.basis(LaggedTemperaturePower(_CONFOUND_TAU_S, 1))
+            - eng.basis(TemperaturePower(1)),
+            "drift": eng.basis(Elapsed()),
         }
         if np.unique(eng.gravity[:, a_i]).size >= 2:
-            sig["sensitivity_curvature"] = eng.basis("dT^2") * eng.gravity[:, a_i]
+            sig["sensitivity_curvature"] = eng.basis(TemperaturePower(2)) * eng.gravity[:, a_i]
         for b in AXES:
             if b != a and np.unique(eng.gravity[:, AXES.index(b)]).size >= 2:
                 sig[f"misalignment (gravity on {b})"] = eng.gravity[:, AXES.index(b)].copy()
         for e in extras:
-            sig[f"extra:{e}"] = eng.basis(f"extra:{e}")
+            sig[f"extra:{e}"] = eng.basis(Extra(e))
         names = list(sig)
         centred = {}
         for k in names:

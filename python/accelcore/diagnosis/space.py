@@ -11,7 +11,15 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
-from accelcore.model import Term
+from accelcore.model import (
+    Basis,
+    Constant,
+    Elapsed,
+    Extra,
+    LaggedTemperaturePower,
+    TemperaturePower,
+    Term,
+)
 
 __all__ = ["FAMILIES", "Spec", "spec_from_terms", "with_tau"]
 
@@ -54,9 +62,9 @@ class Spec:
     drift: bool = False
     extras: tuple[str, ...] = ()
 
-    def temp_basis(self, k: int) -> str:
-        """Return the name of the ``k``-th temperature basis (lagged with ``tau``)."""
-        return f"dT^{k}" if self.tau is None else f"lag({self.tau:.6g}):dT^{k}"
+    def temp_basis(self, k: int) -> Basis:
+        """Return the ``k``-th temperature basis (lagged with ``tau``)."""
+        return TemperaturePower(k) if self.tau is None else LaggedTemperaturePower(self.tau, k)
 
     def terms(self, axis: str) -> tuple[Term, ...]:
         """Return the model terms of ``axis`` at this point, each tagged with its effect."""
@@ -65,19 +73,20 @@ class Spec:
             eff = "base" if k == 1 else "offset_curvature"
             out.append(Term("offset", self.temp_basis(k), effect=eff))
         if self.rate_tau is not None:
-            out.append(Term("offset", f"lag({self.rate_tau:.6g}):dT^1", effect="thermal_lag"))
+            rate = LaggedTemperaturePower(self.rate_tau, 1)
+            out.append(Term("offset", rate, effect="thermal_lag"))
         out.append(Term("gain", "1", source=axis))
         for k in range(1, self.gain_order + 1):
             eff = "base" if k == 1 else "sensitivity_curvature"
             out.append(Term("gain", self.temp_basis(k), source=axis, effect=eff))
         out += [Term("gain", "1", source=b, effect="misalignment") for b in self.cross]
         if self.drift:
-            out.append(Term("offset", "elapsed_h", effect="drift"))
-        out += [Term("offset", f"extra:{e}", effect="extra") for e in self.extras]
+            out.append(Term("offset", Elapsed(), effect="drift"))
+        out += [Term("offset", Extra(e), effect="extra") for e in self.extras]
         if self.tau is not None:
             out = [
                 replace(t, effect="thermal_lag")
-                if t.basis.startswith("lag(") and t.effect == "base"
+                if t.basis.lag_s is not None and t.effect == "base"
                 else t
                 for t in out
             ]
@@ -91,34 +100,34 @@ def spec_from_terms(axis: str, terms: Sequence[Term]) -> Spec | None:
     plain = {t.basis for t in terms if t.kind == "offset"}
     for t in terms:
         basis = t.basis
-        if basis.startswith("lag(") and t.kind == "offset" and "dT^1" in plain:
-            if basis.endswith(":dT^1") and spec.rate_tau is None:
-                spec = replace(spec, rate_tau=float(basis[4 : basis.index(")")]))
+        tau = basis.lag_s
+        if tau is not None and t.kind == "offset" and TemperaturePower(1) in plain:
+            if basis.temperature_order == 1 and spec.rate_tau is None:
+                spec = replace(spec, rate_tau=tau)
                 continue
             return None
-        if basis.startswith("lag("):
-            tau = float(basis[4 : basis.index(")")])
+        if tau is not None:
             if spec.tau is not None and spec.tau != tau:
                 return None
             spec = replace(spec, tau=tau)
-            basis = basis[basis.index(":") + 1 :]
-        if basis == "1":
+            basis = basis.without_lag()
+        if isinstance(basis, Constant):
             has.add((t.kind, t.source))
             if t.kind == "gain" and t.source != axis:
                 spec = replace(spec, cross=(*spec.cross, str(t.source)))
             continue
-        if basis.startswith("dT^"):
-            k = int(basis[3:])
+        if isinstance(basis, TemperaturePower):
+            k = basis.order
             if t.kind == "offset":
                 spec = replace(spec, offset_order=max(spec.offset_order, k))
             elif t.source == axis:
                 spec = replace(spec, gain_order=max(spec.gain_order, k))
             else:
                 return None
-        elif basis == "elapsed_h" and t.kind == "offset":
+        elif isinstance(basis, Elapsed) and t.kind == "offset":
             spec = replace(spec, drift=True)
-        elif basis.startswith("extra:") and t.kind == "offset":
-            spec = replace(spec, extras=(*spec.extras, basis[6:]))
+        elif isinstance(basis, Extra) and t.kind == "offset":
+            spec = replace(spec, extras=(*spec.extras, basis.column))
         else:
             return None
     if ("offset", None) not in has or ("gain", axis) not in has:

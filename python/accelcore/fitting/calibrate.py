@@ -31,7 +31,15 @@ from accelcore._accelcore import __version__
 from accelcore.errors import InsufficientDataError, ParameterError, SingularSystemError
 from accelcore.input.quality import excluded_blocks
 from accelcore.input.session import Run, Session
-from accelcore.model import AXES, Features, Term, base_terms, design_columns
+from accelcore.model import (
+    AXES,
+    Constant,
+    Features,
+    TemperaturePower,
+    Term,
+    base_terms,
+    design_columns,
+)
 from accelcore.result.calibration import AxisModel, Calibration, nominal_sensitivity
 
 __all__ = ["CutFeatures", "Stacked", "block_weights", "calibrate", "fit_axis", "stack_session"]
@@ -191,7 +199,7 @@ def fit_axis(
         if estimated[j]:
             continue
         t = terms[j]
-        if t.kind == "gain" and t.source == axis and t.basis == "1":
+        if t.kind == "gain" and t.source == axis and t.basis == Constant():
             if nominal is None:
                 raise InsufficientDataError(
                     f"axis {axis}: offset and sensitivity cannot be told apart with these "
@@ -240,20 +248,22 @@ def fit_axis(
 
 def _public_name(term: Term, axis: str) -> str:
     if term.kind == "offset":
-        return {"1": "offset", "dT^1": "offset_tc"}.get(term.basis, term.name)
-    if term.source == axis:
-        return {"1": "sensitivity", "dT^1": "sensitivity_tc"}.get(term.basis, term.name)
-    return term.name
+        names = {Constant(): "offset", TemperaturePower(1): "offset_tc"}
+    elif term.source == axis:
+        names = {Constant(): "sensitivity", TemperaturePower(1): "sensitivity_tc"}
+    else:
+        return term.name
+    return names.get(term.basis, term.name)
 
 
 def _extra_references(session: Session, terms: Mapping[str, Sequence[Term]]) -> dict[str, float]:
     refs: dict[str, float] = {}
     for ts in terms.values():
         for t in ts:
-            if t.basis.startswith("extra:") and t.basis not in refs:
-                name = t.basis[len("extra:") :]
+            name = t.basis.column
+            if name is not None and t.basis.name not in refs:
                 values = np.concatenate([r.extras[name] for r in session.runs if name in r.extras])
-                refs[t.basis] = float(np.median(values))
+                refs[t.basis.name] = float(np.median(values))
     return refs
 
 

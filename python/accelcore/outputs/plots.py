@@ -18,7 +18,6 @@ one, no rate of change, no drift and extra observables at their reference.
 from __future__ import annotations
 
 import math
-import re
 import tomllib
 from collections.abc import Sequence
 from pathlib import Path
@@ -31,11 +30,11 @@ from accelcore import core
 from accelcore.constants import AXES
 from accelcore.constants import DELIMITERS as _DELIMITERS
 from accelcore.input.session import Run, Session
+from accelcore.model import Constant
+from accelcore.result.calibration import AxisModel, Calibration
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
-
-    from accelcore.result.calibration import AxisModel, Calibration
 
 __all__ = [
     "plot_offset_vs_temperature",
@@ -43,7 +42,6 @@ __all__ = [
     "plot_sensitivity_vs_temperature",
 ]
 
-_POLY = re.compile(r"^(?:lag\([^)]*\):)?dT\^([1-9])$")
 _DEFAULT_WINDOW_C = (0.0, 60.0)
 
 
@@ -71,12 +69,10 @@ def _steady_state(
     for term, c in zip(model.terms, model.coefficients, strict=True):
         if term.kind != kind or (kind == "gain" and term.source != source):
             continue
-        if term.basis == "1":
+        if isinstance(term.basis, Constant):
             out = out + c
-            continue
-        m = _POLY.match(term.basis)
-        if m:
-            out = out + c * (temp - t_ref_c) ** int(m.group(1))
+        elif term.basis.temperature_order is not None:  # lagged or not: equal at steady state
+            out = out + c * (temp - t_ref_c) ** term.basis.temperature_order
     return out
 
 

@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from accelcore import datasheets
 from accelcore._accelcore import compensate as _compensate
 from accelcore._accelcore import first_order_lag
 from accelcore.constants import STANDARD_GRAVITY
@@ -40,7 +41,7 @@ from accelcore.errors import (
     TemperatureRangeWarning,
 )
 from accelcore.files import atomic_write
-from accelcore.model import AXES, Features, Term, evaluate_basis
+from accelcore.model import AXES, Basis, Features, TemperaturePower, Term
 
 __all__ = [
     "CALIBRATION_FORMAT",
@@ -64,8 +65,6 @@ def nominal_sensitivity(units: str, sensor: str | None) -> tuple[float, float, f
     if units == "m/s2":
         return (STANDARD_GRAVITY,) * 3
     if sensor:
-        from accelcore import datasheets
-
         try:
             sheet = datasheets.load(sensor)
         except (KeyError, ValueError):
@@ -105,27 +104,30 @@ class AxisModel:
     n_samples: int
     rms_residual: float
 
-    def index(self, kind: str, basis: str, source: str | None = None) -> int | None:
+    def index(self, kind: str, basis: Basis | str, source: str | None = None) -> int | None:
         """Position of a term, or None.
 
         A ``dT^k`` basis that the model only has through a thermal lag
         (``lag(tau):dT^k``, added by the diagnosis) matches that term.
         """
+        wanted = Basis.parse(basis)
         for i, t in enumerate(self.terms):
-            if t.kind == kind and t.basis == basis and (kind == "offset" or t.source == source):
+            if t.kind == kind and t.basis == wanted and (kind == "offset" or t.source == source):
                 return i
-        if basis.startswith("dT^"):
+        if isinstance(wanted, TemperaturePower):
             for i, t in enumerate(self.terms):
                 if (
                     t.kind == kind
-                    and t.basis.startswith("lag(")
-                    and t.basis.endswith(f"):{basis}")
+                    and t.basis.lag_s is not None
+                    and t.basis.without_lag() == wanted
                     and (kind == "offset" or t.source == source)
                 ):
                     return i
         return None
 
-    def value(self, kind: str, basis: str, source: str | None = None) -> tuple[float, float]:
+    def value(
+        self, kind: str, basis: Basis | str, source: str | None = None
+    ) -> tuple[float, float]:
         """Coefficient and its standard error (0 for a fixed term, 0 and 0 if absent)."""
         i = self.index(kind, basis, source)
         if i is None:
@@ -321,8 +323,6 @@ class Calibration:
             ``table`` is ``"at T_ref"`` (Tables 3/4) or ``"temperature coefficients"``
             (Tables 5/6).
         """
-        from accelcore import datasheets
-
         if sheet is None or isinstance(sheet, str):
             name = sheet or self.sensor
             if not name:
@@ -435,8 +435,8 @@ class Calibration:
     # ------------------------------------------------------------------ compensation
     def _coefficient_matrices(
         self,
-    ) -> tuple[list[str], NDArray[np.float64], NDArray[np.float64]]:
-        bases: list[str] = []
+    ) -> tuple[list[Basis], NDArray[np.float64], NDArray[np.float64]]:
+        bases: list[Basis] = []
         for m in self.axes.values():
             for t in m.terms:
                 if t.basis not in bases:
@@ -689,7 +689,7 @@ class Compensator:
         feats.carried = self._carried
         n = raw_a.shape[0]
         if self._bases:
-            basis = np.column_stack([evaluate_basis(b, feats, cal.references) for b in self._bases])
+            basis = np.column_stack([b.evaluate(feats, cal.references) for b in self._bases])
         else:
             basis = np.zeros((n, 0))
         g = _compensate(raw_a, np.ascontiguousarray(basis), self._offset, self._gain)

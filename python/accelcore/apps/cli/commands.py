@@ -53,8 +53,6 @@ __all__ = [
 ]
 
 _COLUMN_KEYS = ("time", "temperature", "x", "y", "z")
-# Bases whose value at a sample depends on earlier samples (see accelcore.model).
-_STATEFUL_PREFIXES = ("lag(", "dTdt", "elapsed_h")
 
 
 class CliDataError(Exception):
@@ -168,12 +166,7 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
     names = {**_DEFAULT_COLUMNS, **fmt["columns"]}
     cal = Calibration.load(args.calibration)
     extra_names = sorted(
-        {
-            t.basis[len("extra:") :]
-            for m in cal.axes.values()
-            for t in m.terms
-            if t.basis.startswith("extra:")
-        }
+        {t.basis.column for m in cal.axes.values() for t in m.terms if t.basis.column is not None}
     )
     needed = [names[k] for k in _COLUMN_KEYS] + extra_names
     source = Path(args.input)
