@@ -288,6 +288,95 @@ class LeastSquares:
     def n_rows(self) -> int: ...
 
 @final
+class HeldOutFit:
+    """In-sample and held-out fits of a :class:`BlockedLeastSquares` for one fold assignment.
+
+    Attributes
+    ----------
+    coefficients : ndarray of float64, shape (p,)
+        Fit on every block; columns that cannot be identified are held at 0.
+    not_identified : list of int
+        Columns held at 0 in that fit.
+    in_sample_rss : float
+        Weighted residual sum of squares of that fit.
+    heldout_rss : float
+        Sum of :attr:`heldout_rss_per_block`.
+    fold_coefficients : ndarray of float64, shape (n_folds, p)
+        Row ``k``: the fit without fold ``k`` (NaN for a fold that holds no rows).
+    heldout_rss_per_block : ndarray of float64, shape (n_blocks,)
+        Weighted squared error of each block under the fit without its fold.
+    rows_per_block : ndarray of uint64, shape (n_blocks,)
+        Rows with non-zero weight in each block.
+    """
+
+    @property
+    def coefficients(self) -> NDArray[np.float64]: ...
+    @property
+    def not_identified(self) -> list[int]: ...
+    @property
+    def in_sample_rss(self) -> float: ...
+    @property
+    def heldout_rss(self) -> float: ...
+    @property
+    def fold_coefficients(self) -> NDArray[np.float64]: ...
+    @property
+    def heldout_rss_per_block(self) -> NDArray[np.float64]: ...
+    @property
+    def rows_per_block(self) -> NDArray[np.uint64]: ...
+
+@final
+class BlockedLeastSquares:
+    """Per-block least-squares factors; the held-out error of any folds by merging them.
+
+    Rows are pushed once with their block; :meth:`cross_validate` then fits the model
+    without each fold by merging the other blocks' factors (Givens QR, exact algebra,
+    never normal equations) and scores each block from its own factor
+    (``||R β - z||² + rss``), without visiting a row again.
+
+    Parameters
+    ----------
+    n_columns : int
+        Number of unknowns, 1 to 64.
+    n_blocks : int
+        Number of blocks.
+    """
+
+    def __new__(cls, n_columns: int, n_blocks: int) -> BlockedLeastSquares: ...
+    def push(
+        self,
+        design: ArrayLike,
+        response: ArrayLike,
+        block: ArrayLike,
+        weights: ArrayLike | None = None,
+    ) -> None:
+        """Push rows: ``design`` (n, p), ``response`` (n), the block of each row, weights (n).
+
+        Raises
+        ------
+        accelcore.NonFiniteError
+            A non-finite value (the chunk is refused whole).
+        accelcore.ParameterError
+            A block index out of range or a negative weight.
+        """
+
+    def merge(self, other: BlockedLeastSquares) -> None:
+        """Merge another accumulator of the same shape, block by block."""
+
+    def cross_validate(self, block_fold: ArrayLike) -> HeldOutFit:
+        """Fit on every block and, for each fold, without it; score each block held out.
+
+        Parameters
+        ----------
+        block_fold : array_like of int, shape (n_blocks,)
+            Fold of each block (0, 1, ...; a fold may be empty).
+        """
+
+    @property
+    def n_columns(self) -> int: ...
+    @property
+    def n_blocks(self) -> int: ...
+
+@final
 class RunData:
     """One log file read and decimated by :func:`read_run`."""
 

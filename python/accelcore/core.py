@@ -8,6 +8,8 @@ result of one pass over ``a``'s input followed by ``b``'s.
 - :class:`Decimator`: time-aligned block means (20 Hz to 2 Hz by default).
 - :class:`TemperatureBinner`: per-temperature-bin count, mean and variance.
 - :class:`LeastSquares`: incremental weighted least squares (Givens QR).
+- :class:`BlockedLeastSquares`: one such factor per block of samples; the held-out
+  error of any fold assignment by merging factors (the diagnosis' engine).
 - :class:`FusedPipeline`: the three fused, decimate → bin → line fit, in one pass.
 - :func:`running_median`: a centred running median (the data-quality checks' smoother).
 
@@ -19,9 +21,11 @@ from __future__ import annotations
 
 from accelcore._accelcore import (
     BinnedStats,
+    BlockedLeastSquares,
     DecimatedBlocks,
     Decimator,
     FusedPipeline,
+    HeldOutFit,
     LeastSquares,
     LstsqSolution,
     PipelineResult,
@@ -31,9 +35,11 @@ from accelcore._accelcore import (
 
 __all__ = [
     "BinnedStats",
+    "BlockedLeastSquares",
     "DecimatedBlocks",
     "Decimator",
     "FusedPipeline",
+    "HeldOutFit",
     "LeastSquares",
     "LstsqSolution",
     "PipelineResult",

@@ -11,6 +11,7 @@
 //! - [`Decimator`]: time-aligned block means (20 Hz to 2 Hz by default).
 //! - [`TemperatureBinner`]: per-temperature-bin count, mean and variance.
 //! - [`LeastSquares`]: incremental weighted least squares by Givens QR.
+//! - [`BlockedLeastSquares`]: per-block factors; held-out error of any folds by merging them.
 //! - [`read_run`]: a streaming reader of session logs straight into a [`Decimator`].
 //! - [`running_median`]: a centred running median (the data-quality checks' smoother).
 
@@ -19,6 +20,7 @@ pub mod compensate;
 pub mod decimate;
 pub mod error;
 pub mod features;
+pub mod heldout;
 pub mod pipeline;
 pub mod reader;
 pub mod regression;
@@ -29,6 +31,7 @@ pub use compensate::compensate;
 pub use decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 pub use error::{Error, Result};
 pub use features::first_order_lag;
+pub use heldout::{BlockedLeastSquares, HeldOutFit};
 pub use pipeline::{FusedPipeline, PipelineConfig, PipelineResult};
 pub use reader::{
     merge_runs, plan_split, read_run, read_run_from, read_run_hashed, read_run_range, ChannelRange,

@@ -720,6 +720,202 @@ impl LeastSquares {
     }
 }
 
+/// Held-out evaluation and column selection on a factored problem: what the
+/// diagnosis needs to score a model from per-block statistics, without the rows.
+impl LeastSquares {
+    /// Weighted residual sum of squares of response `response` at `coefficients`,
+    /// over every row pushed so far: `||R b - z||^2 + rss` (exact algebra, as `Q`
+    /// is orthogonal), so the rows themselves are not needed.
+    ///
+    /// Errors: [`Error::Shape`] when `coefficients` is not `n_columns` long,
+    /// [`Error::InvalidParameter`] for a response out of range.
+    pub fn residual_sum_squares_at(&self, coefficients: &[f64], response: usize) -> Result<f64> {
+        let p = self.n_columns;
+        if coefficients.len() != p {
+            return Err(Error::Shape {
+                what: "coefficients",
+                expected: p,
+                got: coefficients.len(),
+            });
+        }
+        if response >= self.n_responses {
+            return Err(Error::InvalidParameter {
+                name: "response",
+                reason: format!(
+                    "{response} is out of range: {} response(s)",
+                    self.n_responses
+                ),
+            });
+        }
+        let width = p + self.n_responses;
+        let mut sum = self.rss[response];
+        for i in 0..p {
+            let row = &self.rz[i * width..(i + 1) * width];
+            let fitted: f64 = row[i..p]
+                .iter()
+                .zip(&coefficients[i..])
+                .map(|(a, b)| a * b)
+                .sum();
+            let r = fitted - row[p + response];
+            sum += r * r;
+        }
+        Ok(sum)
+    }
+
+    /// Columns the rank test of [`LeastSquares::finish`] declares not identifiable
+    /// (0-based, increasing): `|R_jj| <= RANK_TOLERANCE * ||column j||`.
+    pub fn deficient_columns(&self) -> Vec<usize> {
+        let p = self.n_columns;
+        let width = p + self.n_responses;
+        let norms = self.column_norms();
+        (0..p)
+            .filter(|&j| {
+                let rjj = self.rz[j * width + j].abs();
+                norms[j] == 0.0 || rjj <= RANK_TOLERANCE * norms[j]
+            })
+            .collect()
+    }
+
+    /// The same problem without the columns in `drop`: equal, up to rounding, to
+    /// an accumulator that was pushed the same rows with those columns left out.
+    ///
+    /// The rows of `[R | z]` are the data rotated by an orthogonal `Q`; deleting
+    /// columns from them and rotating them into a fresh triangle gives the
+    /// factor of the reduced design (the residual sums carry over unchanged).
+    ///
+    /// Errors: [`Error::InvalidParameter`] when an index is out of range or every
+    /// column would go.
+    pub fn without_columns(&self, drop: &[usize]) -> Result<LeastSquares> {
+        let p = self.n_columns;
+        if let Some(&bad) = drop.iter().find(|&&j| j >= p) {
+            return Err(Error::InvalidParameter {
+                name: "drop",
+                reason: format!("column {bad} is out of range: {p} column(s)"),
+            });
+        }
+        let keep: Vec<usize> = (0..p).filter(|j| !drop.contains(j)).collect();
+        if keep.is_empty() {
+            return Err(Error::InvalidParameter {
+                name: "drop",
+                reason: "every column would be dropped".to_string(),
+            });
+        }
+        let m = self.n_responses;
+        let names = keep.iter().map(|&j| self.column_names[j].clone()).collect();
+        let mut out = LeastSquares::with_responses(keep.len(), m, Some(names))?;
+        let q = keep.len();
+        let width = p + m;
+        let new_width = q + m;
+        let mut extra = vec![0.0; m];
+        let mut row = vec![0.0; new_width];
+        for i in 0..p {
+            let src = &self.rz[i * width..(i + 1) * width];
+            for (dst, &j) in row.iter_mut().zip(&keep) {
+                *dst = src[j];
+            }
+            row[q..].copy_from_slice(&src[p..]);
+            let Some(start) = row.iter().position(|&v| v != 0.0) else {
+                continue;
+            };
+            if start >= q {
+                // Nothing left in the design part: the response entries are residual.
+                for (acc, &v) in extra.iter_mut().zip(&row[q..]) {
+                    *acc += v * v;
+                }
+                continue;
+            }
+            rotate_block_in(
+                &mut out.rz,
+                &mut out.diag_sq,
+                q,
+                &mut row,
+                start,
+                &mut extra,
+            );
+        }
+        for ((acc, &o), &e) in out.rss.iter_mut().zip(&self.rss).zip(&extra) {
+            *acc = o + e;
+        }
+        for (dst, &j) in out.column_sum_squares.iter_mut().zip(&keep) {
+            *dst = self.column_sum_squares[j];
+        }
+        out.n_rows = self.n_rows;
+        out.rows_seen = self.rows_seen;
+        Ok(out)
+    }
+
+    /// Coefficients of response `response` with every non-identifiable column
+    /// held at zero (a basic solution), and the columns so held.
+    ///
+    /// Columns are dropped by the rank test one pass at a time (a column that
+    /// is a combination of earlier ones goes first) and the rest solved by
+    /// back-substitution; the fitted values equal those of any least-squares
+    /// solution. Errors: [`Error::Empty`] with no rows; otherwise as
+    /// [`LeastSquares::residual_sum_squares_at`].
+    pub fn solve_identifiable(&self, response: usize) -> Result<(Vec<f64>, Vec<usize>)> {
+        if self.n_rows == 0 {
+            return Err(Error::Empty {
+                what: "least squares (no rows with non-zero weight)",
+            });
+        }
+        if response >= self.n_responses {
+            return Err(Error::InvalidParameter {
+                name: "response",
+                reason: format!(
+                    "{response} is out of range: {} response(s)",
+                    self.n_responses
+                ),
+            });
+        }
+        let p = self.n_columns;
+        let mut kept: Vec<usize> = (0..p).collect();
+        let mut current = self.clone();
+        loop {
+            let bad = current.deficient_columns();
+            if bad.is_empty() {
+                break;
+            }
+            if bad.len() == kept.len() {
+                kept.clear();
+                break;
+            }
+            current = current.without_columns(&bad)?;
+            kept = kept
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| !bad.contains(k))
+                .map(|(_, &j)| j)
+                .collect();
+        }
+        let mut coefficients = vec![0.0; p];
+        if !kept.is_empty() {
+            let solved = current.back_substitute(response);
+            for (&j, c) in kept.iter().zip(solved) {
+                coefficients[j] = c;
+            }
+        }
+        let dropped = (0..p).filter(|j| !kept.contains(j)).collect();
+        Ok((coefficients, dropped))
+    }
+
+    /// `R b = z` for one response, by back-substitution (R must be non-singular).
+    fn back_substitute(&self, response: usize) -> Vec<f64> {
+        let p = self.n_columns;
+        let width = p + self.n_responses;
+        let mut coefficients = vec![0.0; p];
+        for i in (0..p).rev() {
+            let r_row = &self.rz[i * width..(i + 1) * width];
+            let dot: f64 = r_row[i + 1..p]
+                .iter()
+                .zip(&coefficients[i + 1..])
+                .map(|(a, b)| a * b)
+                .sum();
+            coefficients[i] = (r_row[p + response] - dot) / r_row[i];
+        }
+        coefficients
+    }
+}
+
 /// Rows per block in [`LeastSquares::push`].
 const BLOCK_ROWS: usize = 32;
 

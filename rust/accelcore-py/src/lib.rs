@@ -7,6 +7,7 @@ mod compensation;
 mod decimate;
 mod errors;
 mod gateway;
+mod heldout;
 mod pipeline;
 mod reader;
 mod regression;
@@ -23,6 +24,8 @@ mod _accelcore {
     use super::compensation::{py_compensate, py_first_order_lag};
     #[pymodule_export]
     use super::decimate::{py_blocks_from_arrays, PyDecimatedBlocks, PyDecimator};
+    #[pymodule_export]
+    use super::heldout::{PyBlockedLeastSquares, PyHeldOutFit};
     #[pymodule_export]
     use super::pipeline::{PyFusedPipeline, PyPipelineResult};
     #[pymodule_export]

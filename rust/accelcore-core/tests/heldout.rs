@@ -1,0 +1,302 @@
+//! Tests of held-out least squares from per-block factors: `residual_sum_squares_at`,
+//! `without_columns`, `solve_identifiable` and `BlockedLeastSquares::cross_validate`,
+//! each against a brute-force computation over the rows.
+
+use accelcore_core::{BlockedLeastSquares, Error, LeastSquares};
+use ndarray::{Array2, Axis};
+use proptest::prelude::*;
+
+const EPS: f64 = f64::EPSILON;
+
+/// A well-conditioned random problem: columns 1, t, t², noise; weights in [0.5, 2).
+fn problem(n: usize, p: usize, seed: u64) -> (Array2<f64>, Vec<f64>, Vec<f64>) {
+    let mut s = seed
+        .wrapping_mul(6_364_136_223_846_793_005)
+        .wrapping_add(1_442_695_040_888_963_407);
+    let mut uniform = move || {
+        s ^= s >> 12;
+        s ^= s << 25;
+        s ^= s >> 27;
+        (s.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11) as f64 / (1_u64 << 53) as f64
+    };
+    let x = Array2::from_shape_fn((n, p), |(_, j)| if j == 0 { 1.0 } else { 0.0 });
+    let mut x = x;
+    for i in 0..n {
+        let t = 2.0 * uniform() - 1.0;
+        for j in 1..p {
+            x[[i, j]] = if j % 2 == 1 {
+                t.powi(j as i32)
+            } else {
+                2.0 * uniform() - 1.0
+            };
+        }
+    }
+    let y: Vec<f64> = (0..n)
+        .map(|i| {
+            (0..p).map(|j| (j as f64 + 1.0) * x[[i, j]]).sum::<f64>() + 0.1 * (uniform() - 0.5)
+        })
+        .collect();
+    let w: Vec<f64> = (0..n).map(|_| 0.5 + 1.5 * uniform()).collect();
+    (x, y, w)
+}
+
+fn direct_rss(x: &Array2<f64>, y: &[f64], w: &[f64], beta: &[f64], rows: &[usize]) -> f64 {
+    rows.iter()
+        .map(|&i| {
+            let fit: f64 = x.row(i).iter().zip(beta).map(|(a, b)| a * b).sum();
+            w[i] * (y[i] - fit) * (y[i] - fit)
+        })
+        .sum()
+}
+
+fn sub_rows(x: &Array2<f64>, rows: &[usize]) -> Array2<f64> {
+    x.select(Axis(0), rows)
+}
+
+#[test]
+fn residual_sum_squares_at_equals_the_rows() {
+    let (x, y, w) = problem(200, 4, 7);
+    let mut ls = LeastSquares::new(4, None).unwrap();
+    ls.push(x.view(), &y, Some(&w)).unwrap();
+    let all: Vec<usize> = (0..200).collect();
+    for beta in [
+        vec![0.0; 4],
+        vec![1.0, 2.0, 3.0, 4.0],
+        vec![-3.0, 0.5, 7.0, 1e-3],
+    ] {
+        let got = ls.residual_sum_squares_at(&beta, 0).unwrap();
+        let want = direct_rss(&x, &y, &w, &beta, &all);
+        // Both sum n squares of O(10) terms: relative error of a few hundred eps.
+        assert!(
+            (got - want).abs() <= 1e3 * EPS * want.max(1.0),
+            "{got} vs {want}"
+        );
+    }
+    let fit = ls.finish().unwrap();
+    let at_min = ls.residual_sum_squares_at(&fit.coefficients, 0).unwrap();
+    assert!((at_min - fit.residual_sum_squares).abs() <= 1e3 * EPS * at_min.max(1.0));
+    assert!(matches!(
+        ls.residual_sum_squares_at(&[1.0], 0),
+        Err(Error::Shape { .. })
+    ));
+}
+
+#[test]
+fn without_columns_equals_pushing_the_reduced_rows() {
+    let (x, y, w) = problem(300, 5, 11);
+    let mut ls = LeastSquares::new(5, None).unwrap();
+    ls.push(x.view(), &y, Some(&w)).unwrap();
+    let reduced = ls.without_columns(&[1, 3]).unwrap();
+    let xr = x.select(Axis(1), &[0, 2, 4]);
+    let mut direct = LeastSquares::new(3, None).unwrap();
+    direct.push(xr.view(), &y, Some(&w)).unwrap();
+    let (a, b) = (reduced.finish().unwrap(), direct.finish().unwrap());
+    // Two backward-stable factorisations of the same well-conditioned design
+    // (scaled condition number < 10): coefficients agree to ~kappa * n * eps.
+    for (u, v) in a.coefficients.iter().zip(&b.coefficients) {
+        assert!((u - v).abs() <= 1e-11 * v.abs().max(1.0), "{u} vs {v}");
+    }
+    let rel = (a.residual_sum_squares - b.residual_sum_squares).abs() / b.residual_sum_squares;
+    assert!(
+        rel <= 1e-10,
+        "rss {} vs {}",
+        a.residual_sum_squares,
+        b.residual_sum_squares
+    );
+    assert_eq!(reduced.n_rows(), 300);
+    assert!(ls.without_columns(&[0, 1, 2, 3, 4]).is_err());
+    assert!(ls.without_columns(&[5]).is_err());
+}
+
+#[test]
+fn a_dependent_column_is_held_at_zero_and_the_fit_is_unchanged() {
+    let (x, y, w) = problem(150, 3, 3);
+    // Column 3 = column 1 + column 2: not identifiable after them.
+    let mut xd = Array2::zeros((150, 4));
+    for i in 0..150 {
+        for j in 0..3 {
+            xd[[i, j]] = x[[i, j]];
+        }
+        xd[[i, 3]] = x[[i, 1]] + x[[i, 2]];
+    }
+    let mut ls = LeastSquares::new(4, None).unwrap();
+    ls.push(xd.view(), &y, Some(&w)).unwrap();
+    assert!(matches!(ls.finish(), Err(Error::RankDeficient { .. })));
+    assert_eq!(ls.deficient_columns(), vec![3]);
+    let (beta, dropped) = ls.solve_identifiable(0).unwrap();
+    assert_eq!(dropped, vec![3]);
+    assert_eq!(beta[3], 0.0);
+    let mut full = LeastSquares::new(3, None).unwrap();
+    full.push(x.view(), &y, Some(&w)).unwrap();
+    let want = full.finish().unwrap();
+    for (u, v) in beta[..3].iter().zip(&want.coefficients) {
+        assert!((u - v).abs() <= 1e-10 * v.abs().max(1.0), "{u} vs {v}");
+    }
+    // An all-zero column, and a problem where nothing is identifiable.
+    let zeros = Array2::zeros((10, 2));
+    let mut z = LeastSquares::new(2, None).unwrap();
+    z.push(zeros.view(), &[1.0; 10], None).unwrap();
+    let (beta, dropped) = z.solve_identifiable(0).unwrap();
+    assert_eq!((beta, dropped), (vec![0.0, 0.0], vec![0, 1]));
+    assert!(matches!(
+        LeastSquares::new(2, None).unwrap().solve_identifiable(0),
+        Err(Error::Empty { .. })
+    ));
+}
+
+/// Brute force: for each fold, fit on the other folds' rows, evaluate each block.
+fn brute_force(
+    x: &Array2<f64>,
+    y: &[f64],
+    w: &[f64],
+    block: &[u32],
+    block_fold: &[u32],
+) -> Vec<f64> {
+    let n_folds = *block_fold.iter().max().unwrap() as usize + 1;
+    let mut out = vec![0.0; block_fold.len()];
+    for k in 0..n_folds as u32 {
+        let train: Vec<usize> = (0..y.len())
+            .filter(|&i| block_fold[block[i] as usize] != k)
+            .collect();
+        let xt = sub_rows(x, &train);
+        let yt: Vec<f64> = train.iter().map(|&i| y[i]).collect();
+        let wt: Vec<f64> = train.iter().map(|&i| w[i]).collect();
+        let mut ls = LeastSquares::new(x.ncols(), None).unwrap();
+        ls.push(xt.view(), &yt, Some(&wt)).unwrap();
+        let beta = ls.finish().unwrap().coefficients;
+        for (b, &f) in block_fold.iter().enumerate() {
+            if f == k {
+                let rows: Vec<usize> = (0..y.len()).filter(|&i| block[i] as usize == b).collect();
+                out[b] = direct_rss(x, y, w, &beta, &rows);
+            }
+        }
+    }
+    out
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn cross_validation_equals_refitting_the_rows(
+        seed in 0_u64..10_000,
+        n_blocks in 3_usize..12,
+        n_folds in 2_u32..5,
+        p in 1_usize..5,
+        shuffled in any::<bool>(),
+    ) {
+        let n = 40 * n_blocks;
+        let (x, y, w) = problem(n, p, seed);
+        // Rows in block order, or interleaved (a block's rows need not be contiguous).
+        let block: Vec<u32> = (0..n)
+            .map(|i| if shuffled { (i % n_blocks) as u32 } else { (i / 40) as u32 })
+            .collect();
+        let block_fold: Vec<u32> = (0..n_blocks).map(|b| b as u32 % n_folds).collect();
+        let mut cv = BlockedLeastSquares::new(p, n_blocks).unwrap();
+        // Pushed in two chunks cut mid-block: chunking must not matter.
+        let cut = n / 2 + 7;
+        cv.push(x.slice_axis(Axis(0), (..cut).into()), &y[..cut], Some(&w[..cut]), &block[..cut]).unwrap();
+        cv.push(x.slice_axis(Axis(0), (cut..).into()), &y[cut..], Some(&w[cut..]), &block[cut..]).unwrap();
+        let fit = cv.cross_validate(&block_fold).unwrap();
+        let want = brute_force(&x, &y, &w, &block, &block_fold);
+        for (got, want) in fit.heldout_rss_per_block.iter().zip(&want) {
+            // Well-conditioned designs (scaled kappa < 10), n <= 480 rows: the two
+            // routes differ by rounding of order n * kappa * eps relative.
+            prop_assert!((got - want).abs() <= 1e-9 * want.max(1e-12), "{} vs {}", got, want);
+        }
+        let mut whole = LeastSquares::new(p, None).unwrap();
+        whole.push(x.view(), &y, Some(&w)).unwrap();
+        let sol = whole.finish().unwrap();
+        for (u, v) in fit.coefficients.iter().zip(&sol.coefficients) {
+            prop_assert!((u - v).abs() <= 1e-10 * v.abs().max(1.0));
+        }
+        prop_assert!((fit.in_sample_rss - sol.residual_sum_squares).abs() <= 1e-9 * sol.residual_sum_squares);
+        prop_assert!(fit.heldout_rss() >= fit.in_sample_rss * (1.0 - 1e-9));
+    }
+
+    #[test]
+    fn merged_halves_equal_one_accumulator(seed in 0_u64..10_000, n_blocks in 2_usize..8) {
+        let n = 30 * n_blocks;
+        let (x, y, w) = problem(n, 3, seed);
+        let block: Vec<u32> = (0..n).map(|i| (i % n_blocks) as u32).collect();
+        let folds: Vec<u32> = (0..n_blocks).map(|b| (b % 2) as u32).collect();
+        let mut one = BlockedLeastSquares::new(3, n_blocks).unwrap();
+        one.push(x.view(), &y, Some(&w), &block).unwrap();
+        let mut a = BlockedLeastSquares::new(3, n_blocks).unwrap();
+        let mut b = BlockedLeastSquares::new(3, n_blocks).unwrap();
+        let h = n / 3;
+        a.push(x.slice_axis(Axis(0), (..h).into()), &y[..h], Some(&w[..h]), &block[..h]).unwrap();
+        b.push(x.slice_axis(Axis(0), (h..).into()), &y[h..], Some(&w[h..]), &block[h..]).unwrap();
+        a.merge(&b).unwrap();
+        let (u, v) = (one.cross_validate(&folds).unwrap(), a.cross_validate(&folds).unwrap());
+        for (p, q) in u.heldout_rss_per_block.iter().zip(&v.heldout_rss_per_block) {
+            prop_assert!((p - q).abs() <= 1e-9 * q.max(1e-12));
+        }
+    }
+}
+
+#[test]
+fn a_fold_whose_training_data_lacks_a_column_holds_it_at_zero() {
+    // Column 1 is non-zero only in block 0; without block 0 it cannot be fitted.
+    let n = 60;
+    let mut x = Array2::zeros((n, 2));
+    let mut y = vec![0.0; n];
+    let block: Vec<u32> = (0..n).map(|i| (i / 20) as u32).collect();
+    for i in 0..n {
+        x[[i, 0]] = 1.0;
+        x[[i, 1]] = if block[i] == 0 { 1.0 } else { 0.0 };
+        y[i] = 2.0 + 3.0 * x[[i, 1]];
+    }
+    let mut cv = BlockedLeastSquares::new(2, 3).unwrap();
+    cv.push(x.view(), &y, None, &block).unwrap();
+    let fit = cv.cross_validate(&[0, 1, 2]).unwrap();
+    assert_eq!(fit.fold_coefficients[0][1], 0.0);
+    // Block 0 predicted without its step of 3: 20 rows of error 3.
+    assert!((fit.heldout_rss_per_block[0] - 20.0 * 9.0).abs() < 1e-9);
+    assert!(fit.heldout_rss_per_block[1] < 1e-20 && fit.heldout_rss_per_block[2] < 1e-20);
+    assert!(fit.not_identified.is_empty());
+}
+
+#[test]
+fn bad_input_is_refused_whole() {
+    let x = Array2::from_elem((4, 2), 1.0);
+    let mut cv = BlockedLeastSquares::new(2, 2).unwrap();
+    assert!(matches!(
+        cv.push(x.view(), &[1.0; 4], None, &[0, 0, 2, 1]),
+        Err(Error::InvalidParameter { name: "block", .. })
+    ));
+    assert!(matches!(
+        cv.push(x.view(), &[1.0; 3], None, &[0, 0, 1, 1]),
+        Err(Error::Shape { .. })
+    ));
+    assert!(matches!(
+        cv.push(x.view(), &[1.0, 1.0, f64::NAN, 1.0], None, &[0, 0, 1, 1]),
+        Err(Error::NonFinite {
+            what: "response",
+            row: 2,
+            ..
+        })
+    ));
+    assert!(matches!(
+        cv.push(
+            x.view(),
+            &[1.0; 4],
+            Some(&[1.0, -1.0, 1.0, 1.0]),
+            &[0, 0, 1, 1]
+        ),
+        Err(Error::InvalidParameter {
+            name: "weights",
+            ..
+        })
+    ));
+    assert_eq!(
+        cv.block(0).unwrap().n_rows(),
+        0,
+        "a refused chunk pushes nothing"
+    );
+    assert!(matches!(cv.cross_validate(&[0]), Err(Error::Shape { .. })));
+    assert!(matches!(
+        cv.cross_validate(&[0, 1]),
+        Err(Error::Empty { .. })
+    ));
+}
