@@ -21,6 +21,8 @@ One module per kernel, named as its Rust twin in ``rust/accelcore-core/src``:
 - :mod:`~accelcore.reference.binning`: :class:`TemperatureBinner`, :class:`BinnedStats`;
 - :mod:`~accelcore.reference.regression`: :class:`LeastSquares`, :class:`LstsqSolution`;
 - :mod:`~accelcore.reference.robust`: :func:`running_median`;
+- :mod:`~accelcore.reference.heldout`: :func:`cross_validate`, the held-out fits of
+  ``BlockedLeastSquares`` by refitting the rows of every other fold;
 - :mod:`~accelcore.reference.errors`: the exceptions.
 
 The reference raises its own exception classes, which carry the same names as
@@ -43,6 +45,7 @@ from accelcore.reference.errors import (
     SingularSystemError,
     TimeOrderError,
 )
+from accelcore.reference.heldout import HeldOut, cross_validate
 from accelcore.reference.regression import RANK_RTOL, LeastSquares, LstsqSolution
 from accelcore.reference.robust import running_median
 
@@ -52,6 +55,7 @@ __all__ = [
     "BinnedStats",
     "DecimatedBlocks",
     "Decimator",
+    "HeldOut",
     "IncompatibleError",
     "InsufficientDataError",
     "LeastSquares",
@@ -63,5 +67,6 @@ __all__ = [
     "SingularSystemError",
     "TemperatureBinner",
     "TimeOrderError",
+    "cross_validate",
     "running_median",
 ]
