@@ -19,7 +19,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,22 +29,22 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from accelcore import datasheets
-from accelcore._accelcore import compensate as _compensate
-from accelcore._accelcore import first_order_lag
 from accelcore.constants import STANDARD_GRAVITY
 from accelcore.errors import (
     AccelcoreIOError,
     CalibrationFileError,
     InsufficientDataError,
-    ParameterError,
-    TemperatureRangeWarning,
 )
 from accelcore.files import atomic_write
-from accelcore.model import AXES, Basis, Features, TemperaturePower, Term
+from accelcore.model import AXES, Basis, TemperaturePower, Term
+from accelcore.result import datasheet
+from accelcore.result.compensator import Compensator
+from accelcore.result.summary import AxisSummary
 
 __all__ = [
     "CALIBRATION_FORMAT",
     "AxisModel",
+    "AxisSummary",
     "Calibration",
     "Compensator",
     "nominal_sensitivity",
@@ -168,21 +167,6 @@ class AxisModel:
             int(data["n_samples"]),
             float(data["rms_residual"]),
         )
-
-
-@dataclass(frozen=True)
-class AxisSummary:
-    """The seed paper's four parameters of one axis at ``t_ref_c``, with standard errors."""
-
-    axis: str
-    zero_g_offset: float
-    zero_g_offset_se: float
-    sensitivity: float
-    sensitivity_se: float
-    offset_tc_mg_per_c: float
-    offset_tc_mg_per_c_se: float
-    sensitivity_tc_pct_per_c: float
-    sensitivity_tc_pct_per_c_se: float
 
 
 def _ratio_se(num: float, var_num: float, den: float, var_den: float, cov: float) -> float:
@@ -323,114 +307,12 @@ class Calibration:
             ``table`` is ``"at T_ref"`` (Tables 3/4) or ``"temperature coefficients"``
             (Tables 5/6).
         """
-        if sheet is None or isinstance(sheet, str):
-            name = sheet or self.sensor
-            if not name:
-                raise ParameterError("no sensor named: pass sheet= or set sensor in session.toml")
-            sheet = datasheets.load(name)
-        u = self.units
-        rows = []
-        for a in self.axes:
-            s = self.axis(a)
-            unknown = {n.split(":", 1)[1] for n in self.not_identified if n.startswith(f"{a}:")}
-            needs = {
-                "sensitivity": {"sensitivity"},
-                "zero_g_offset": {"offset"},
-                "output_at_plus_1g": {"offset", "sensitivity"},
-                "output_at_minus_1g": {"offset", "sensitivity"},
-                "sensitivity_tc_pct_per_c": {"sensitivity", "sensitivity_tc"},
-                "offset_tc_mg_per_c": {"offset_tc"},
-            }
-            params: list[tuple[str, str, str, float, float, str]] = [
-                (
-                    "at T_ref",
-                    "sensitivity",
-                    "sensitivity",
-                    s.sensitivity,
-                    s.sensitivity_se,
-                    f"{u}/g",
-                ),
-                (
-                    "at T_ref",
-                    "zero_g_offset",
-                    "zero_g_offset",
-                    s.zero_g_offset,
-                    s.zero_g_offset_se,
-                    u,
-                ),
-                (
-                    "at T_ref",
-                    "+1 g",
-                    "output_at_plus_1g",
-                    s.zero_g_offset + s.sensitivity,
-                    math.hypot(s.zero_g_offset_se, s.sensitivity_se),
-                    u,
-                ),
-                (
-                    "at T_ref",
-                    "-1 g",
-                    "output_at_minus_1g",
-                    s.zero_g_offset - s.sensitivity,
-                    math.hypot(s.zero_g_offset_se, s.sensitivity_se),
-                    u,
-                ),
-                (
-                    "temperature coefficients",
-                    "sensitivity_tc",
-                    "sensitivity_tc_pct_per_c",
-                    s.sensitivity_tc_pct_per_c,
-                    s.sensitivity_tc_pct_per_c_se,
-                    "%/°C",
-                ),
-                (
-                    "temperature coefficients",
-                    "offset_tc",
-                    "offset_tc_mg_per_c",
-                    s.offset_tc_mg_per_c,
-                    s.offset_tc_mg_per_c_se,
-                    "mg/°C",
-                ),
-            ]
-            for table, label, parameter, value, se, unit in params:
-                lim = sheet.limits(parameter, a)
-                if needs[parameter] & unknown:
-                    value, se = math.nan, math.nan
-                in_spec = None if lim is None or math.isnan(value) else lim.contains(value)
-                rows.append(
-                    {
-                        "table": table,
-                        "parameter": label,
-                        "axis": a,
-                        "min": _lim(lim, "min"),
-                        "typ": _lim(lim, "typ"),
-                        "max": _lim(lim, "max"),
-                        "measured": value,
-                        "measured_se": se,
-                        "unit": unit,
-                        "in_spec": in_spec,
-                    }
-                )
-        return pd.DataFrame(rows).set_index(["table", "parameter", "axis"])
+        summaries = {a: self.axis(a) for a in self.axes}
+        return datasheet.compare(summaries, self.units, self.not_identified, self.sensor, sheet)
 
     def datasheet_text(self, sheet: Any = None) -> str:
         """Plain-text rendering of :meth:`compare_datasheet` for the terminal."""
-        df = self.compare_datasheet(sheet).reset_index()
-        out = []
-        for table, part in df.groupby("table", sort=False):
-            out.append(f"{table}:")
-            lines = [
-                f"  {'parameter':<15}{'axis':<5}{'min':>10}{'typ':>10}{'max':>10}"
-                f"{'measured':>12}{'± se':>10}  {'unit':<6}{'spec':<5}"
-            ]
-            for r in part.to_dict(orient="records"):
-                spec = {True: "ok", False: "OUT"}.get(r["in_spec"], "-")
-                lines.append(
-                    f"  {r['parameter']:<15}{r['axis']:<5}{_fmt(r['min']):>10}"
-                    f"{_fmt(r['typ']):>10}{_fmt(r['max']):>10}{_fmt(r['measured'], 5):>12}"
-                    f"{_fmt(r['measured_se'], 2):>10}  {r['unit']:<6}{spec:<5}"
-                )
-            out += lines
-        return "\n".join(out)
+        return datasheet.text(self.compare_datasheet(sheet))
 
     # ------------------------------------------------------------------ compensation
     def _coefficient_matrices(
@@ -502,7 +384,16 @@ class Calibration:
         lag, dT/dt) carry their state across chunks, so any chunking gives the
         result of one :meth:`compensate` call over the whole log.
         """
-        return Compensator(self, warn_stacklevel=warn_stacklevel)
+        bases, offset, gain = self._coefficient_matrices()
+        return Compensator(
+            bases,
+            offset,
+            gain,
+            references=self.references,
+            t_ref_c=self.t_ref_c,
+            temperature_range_c=self.temperature_range_c,
+            warn_stacklevel=warn_stacklevel,
+        )
 
     # ------------------------------------------------------------------ files
     def to_dict(self) -> dict[str, Any]:
@@ -609,121 +500,3 @@ class Calibration:
             )
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise CalibrationFileError(f"{where}: malformed calibration body: {exc!r}") from exc
-
-
-class _CarriedFeatures(Features):
-    """Features of one chunk whose lag filters start from the previous chunk's state."""
-
-    carried: dict[float, tuple[float, float, float]]
-
-    def lagged_temperature_c(self, tau_s: float) -> NDArray[np.float64]:
-        if tau_s not in self._lag_cache:
-            time_s = self._need_time(f"lag({tau_s})")
-            state = self.carried.get(tau_s)
-            if state is None:
-                y = first_order_lag(time_s, self.temperature_c, tau_s)
-            else:
-                last_t, last_x, last_y = state
-                t_ext = np.concatenate([[last_t], time_s])
-                x_ext = np.concatenate([[last_x], self.temperature_c])
-                y = first_order_lag(t_ext, x_ext, tau_s, last_y)[1:]
-            self._lag_cache[tau_s] = y
-        return self._lag_cache[tau_s]
-
-
-class Compensator:
-    """Streaming compensation: push consecutive chunks of one log, get acceleration in g.
-
-    Made by :meth:`Calibration.compensator`. Time is measured from the first
-    chunk's first sample; lag filters continue from the previous chunk's last
-    sample, so the result does not depend on the chunking.
-
-    Attributes
-    ----------
-    n_out_of_range : int
-        Samples so far outside the calibrated temperature range (warned once).
-    n_rows : int
-        Samples so far.
-    """
-
-    def __init__(self, calibration: Calibration, *, warn_stacklevel: int = 3) -> None:
-        self.calibration = calibration
-        self._bases, self._offset, self._gain = calibration._coefficient_matrices()
-        self._t0: float | None = None
-        self._carried: dict[float, tuple[float, float, float]] = {}
-        self._warned = False
-        self._stacklevel = warn_stacklevel
-        self.n_out_of_range = 0
-        self.n_rows = 0
-
-    def push(
-        self,
-        raw: ArrayLike,
-        temp_c: ArrayLike,
-        time_s: ArrayLike | None = None,
-        extras: Mapping[str, ArrayLike] | None = None,
-    ) -> NDArray[np.float64]:
-        """Compensate the next chunk; see :meth:`Calibration.compensate` for the arguments."""
-        cal = self.calibration
-        raw_a = np.ascontiguousarray(raw, dtype=np.float64)
-        if raw_a.ndim != 2 or raw_a.shape[1] != 3:
-            raise ParameterError(f"raw must have shape (n, 3), got {raw_a.shape}")
-        temp = np.ascontiguousarray(temp_c, dtype=np.float64).reshape(-1)
-        if temp.shape[0] != raw_a.shape[0]:
-            raise ParameterError(f"temp_c has {temp.shape[0]} values for {raw_a.shape[0]} rows")
-        self._check_range(temp)
-        rel = None
-        if time_s is not None:
-            time_a = np.asarray(time_s, dtype=np.float64).reshape(-1)
-            if time_a.shape[0] != temp.shape[0]:
-                raise ParameterError(f"time_s has {time_a.shape[0]} values for {temp.shape[0]}")
-            if self._t0 is None and time_a.size:
-                self._t0 = float(time_a[0])
-            rel = time_a - (self._t0 or 0.0)
-        feats = _CarriedFeatures(
-            temp,
-            rel,
-            {k: np.asarray(v, dtype=np.float64) for k, v in (extras or {}).items()},
-            cal.t_ref_c,
-        )
-        feats.carried = self._carried
-        n = raw_a.shape[0]
-        if self._bases:
-            basis = np.column_stack([b.evaluate(feats, cal.references) for b in self._bases])
-        else:
-            basis = np.zeros((n, 0))
-        g = _compensate(raw_a, np.ascontiguousarray(basis), self._offset, self._gain)
-        if n and rel is not None:
-            for tau, y in feats._lag_cache.items():
-                self._carried[tau] = (float(rel[-1]), float(temp[-1]), float(y[-1]))
-        self.n_rows += n
-        return g
-
-    def _check_range(self, temp: NDArray[np.float64]) -> None:
-        finite = temp[np.isfinite(temp)]
-        if finite.size == 0:
-            return
-        lo, hi = self.calibration.temperature_range_c
-        outside = int(np.count_nonzero((finite < lo) | (finite > hi)))
-        self.n_out_of_range += outside
-        if outside and not self._warned:
-            self._warned = True
-            warnings.warn(
-                TemperatureRangeWarning(
-                    f"{outside} of {finite.size} samples lie outside the calibrated range "
-                    f"{lo:.2f}…{hi:.2f} °C (data spans {finite.min():.2f}…{finite.max():.2f} "
-                    "°C); the model is extrapolated there, not clamped"
-                ),
-                stacklevel=self._stacklevel,
-            )
-
-
-def _lim(lim: Any, which: str) -> float:
-    v = None if lim is None else getattr(lim, which)
-    return math.nan if v is None else float(v)
-
-
-def _fmt(v: object, digits: int = 4) -> str:
-    if not isinstance(v, (int, float)) or math.isnan(v):
-        return ""
-    return f"{v:.{digits}g}"

@@ -1,0 +1,136 @@
+"""Streaming compensation: raw output to acceleration in g (the 3×3 model solved in Rust)."""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from accelcore._accelcore import compensate as _compensate
+from accelcore._accelcore import first_order_lag
+from accelcore.errors import ParameterError, TemperatureRangeWarning
+from accelcore.model import Basis, Features
+
+__all__ = ["Compensator"]
+
+
+class _CarriedFeatures(Features):
+    """Features of one chunk whose lag filters start from the previous chunk's state."""
+
+    carried: dict[float, tuple[float, float, float]]
+
+    def lagged_temperature_c(self, tau_s: float) -> NDArray[np.float64]:
+        if tau_s not in self._lag_cache:
+            time_s = self._need_time(f"lag({tau_s})")
+            state = self.carried.get(tau_s)
+            if state is None:
+                y = first_order_lag(time_s, self.temperature_c, tau_s)
+            else:
+                last_t, last_x, last_y = state
+                t_ext = np.concatenate([[last_t], time_s])
+                x_ext = np.concatenate([[last_x], self.temperature_c])
+                y = first_order_lag(t_ext, x_ext, tau_s, last_y)[1:]
+            self._lag_cache[tau_s] = y
+        return self._lag_cache[tau_s]
+
+
+class Compensator:
+    """Streaming compensation: push consecutive chunks of one log, get acceleration in g.
+
+    Made by :meth:`Calibration.compensator` from the calibration's coefficients:
+    ``offset`` (3, k) and ``gain`` (9, k, row ``3·axis + source``) over ``bases`` (k).
+    Time is measured from the first chunk's first sample; lag filters continue from the previous chunk's last
+    sample, so the result does not depend on the chunking.
+
+    Attributes
+    ----------
+    n_out_of_range : int
+        Samples so far outside the calibrated temperature range (warned once).
+    n_rows : int
+        Samples so far.
+    """
+
+    def __init__(
+        self,
+        bases: Sequence[Basis],
+        offset: NDArray[np.float64],
+        gain: NDArray[np.float64],
+        *,
+        references: Mapping[str, float],
+        t_ref_c: float,
+        temperature_range_c: tuple[float, float],
+        warn_stacklevel: int = 3,
+    ) -> None:
+        self._bases = list(bases)
+        self._offset, self._gain = offset, gain
+        self._references = dict(references)
+        self._t_ref_c = t_ref_c
+        self._range_c = temperature_range_c
+        self._t0: float | None = None
+        self._carried: dict[float, tuple[float, float, float]] = {}
+        self._warned = False
+        self._stacklevel = warn_stacklevel
+        self.n_out_of_range = 0
+        self.n_rows = 0
+
+    def push(
+        self,
+        raw: ArrayLike,
+        temp_c: ArrayLike,
+        time_s: ArrayLike | None = None,
+        extras: Mapping[str, ArrayLike] | None = None,
+    ) -> NDArray[np.float64]:
+        """Compensate the next chunk; see :meth:`Calibration.compensate` for the arguments."""
+        raw_a = np.ascontiguousarray(raw, dtype=np.float64)
+        if raw_a.ndim != 2 or raw_a.shape[1] != 3:
+            raise ParameterError(f"raw must have shape (n, 3), got {raw_a.shape}")
+        temp = np.ascontiguousarray(temp_c, dtype=np.float64).reshape(-1)
+        if temp.shape[0] != raw_a.shape[0]:
+            raise ParameterError(f"temp_c has {temp.shape[0]} values for {raw_a.shape[0]} rows")
+        self._check_range(temp)
+        rel = None
+        if time_s is not None:
+            time_a = np.asarray(time_s, dtype=np.float64).reshape(-1)
+            if time_a.shape[0] != temp.shape[0]:
+                raise ParameterError(f"time_s has {time_a.shape[0]} values for {temp.shape[0]}")
+            if self._t0 is None and time_a.size:
+                self._t0 = float(time_a[0])
+            rel = time_a - (self._t0 or 0.0)
+        feats = _CarriedFeatures(
+            temp,
+            rel,
+            {k: np.asarray(v, dtype=np.float64) for k, v in (extras or {}).items()},
+            self._t_ref_c,
+        )
+        feats.carried = self._carried
+        n = raw_a.shape[0]
+        if self._bases:
+            basis = np.column_stack([b.evaluate(feats, self._references) for b in self._bases])
+        else:
+            basis = np.zeros((n, 0))
+        g = _compensate(raw_a, np.ascontiguousarray(basis), self._offset, self._gain)
+        if n and rel is not None:
+            for tau, y in feats._lag_cache.items():
+                self._carried[tau] = (float(rel[-1]), float(temp[-1]), float(y[-1]))
+        self.n_rows += n
+        return g
+
+    def _check_range(self, temp: NDArray[np.float64]) -> None:
+        finite = temp[np.isfinite(temp)]
+        if finite.size == 0:
+            return
+        lo, hi = self._range_c
+        outside = int(np.count_nonzero((finite < lo) | (finite > hi)))
+        self.n_out_of_range += outside
+        if outside and not self._warned:
+            self._warned = True
+            warnings.warn(
+                TemperatureRangeWarning(
+                    f"{outside} of {finite.size} samples lie outside the calibrated range "
+                    f"{lo:.2f}…{hi:.2f} °C (data spans {finite.min():.2f}…{finite.max():.2f} "
+                    "°C); the model is extrapolated there, not clamped"
+                ),
+                stacklevel=self._stacklevel,
+            )
