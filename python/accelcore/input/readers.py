@@ -41,14 +41,8 @@ from accelcore.errors import (
     SessionFormatError,
     TimeOrderError,
 )
-from accelcore.input.session import (
-    Run,
-    RunStats,
-    Session,
-    _check_units,
-    _make_run,
-    gravity_of,
-)
+from accelcore.input.format import check_units, gravity_of
+from accelcore.input.session import Run, RunStats, Session, _make_run
 
 __all__ = ["CHUNK_ROWS", "read_orientation_log", "read_parquet", "read_tdms"]
 
@@ -547,7 +541,7 @@ def read_orientation_log(
         The file does not exist.
     """
     file = _check_file(path)
-    units = _check_units(units, "units")
+    units = check_units(units, "units")
     rate = _check_rate(rate_hz)
     settle = _check_settle(settle_s)
     scale = _time_scale(time_unit)
@@ -747,7 +741,7 @@ def read_parquet(
     except ImportError as exc:
         raise ImportError("read_parquet needs pyarrow: pip install accelcore[parquet]") from exc
     file = _check_file(path)
-    units = _check_units(units, "units")
+    units = check_units(units, "units")
     rate = _check_rate(rate_hz)
     settle = _check_settle(settle_s)
     scale = _time_scale(time_unit)
@@ -969,7 +963,7 @@ def read_tdms(
     except ImportError as exc:
         raise ImportError("read_tdms needs npTDMS: pip install accelcore[tdms]") from exc
     file = _check_file(path)
-    units = _check_units(units, "units")
+    units = check_units(units, "units")
     rate_arg = None if rate_hz is None else _check_rate(rate_hz)
     settle = _check_settle(settle_s)
     scale = _time_scale(time_unit)
