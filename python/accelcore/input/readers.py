@@ -31,6 +31,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from accelcore import core
+from accelcore._accelcore import RunTally
 from accelcore.constants import DEFAULT_COLUMNS, DELIMITERS, ORIENTATIONS, TIME_UNITS
 from accelcore.errors import (
     AccelcoreIOError,
@@ -129,32 +130,6 @@ def _missing_columns(
 # --------------------------------------------------------------------------- one run
 
 
-class _Range:
-    """Streaming min / max of each channel and how many samples sit exactly there."""
-
-    def __init__(self, n: int) -> None:
-        self.min = np.full(n, np.inf)
-        self.max = np.full(n, -np.inf)
-        self.n_min = np.zeros(n, dtype=np.uint64)
-        self.n_max = np.zeros(n, dtype=np.uint64)
-
-    def push(self, channels: _FloatArray) -> None:
-        for j in range(channels.shape[1]):
-            col = channels[:, j]
-            col = col[np.isfinite(col)]
-            if col.size == 0:
-                continue
-            lo, hi = float(col.min()), float(col.max())
-            if lo < self.min[j]:
-                self.min[j], self.n_min[j] = lo, 0
-            if lo == self.min[j]:
-                self.n_min[j] += np.uint64(np.count_nonzero(col == lo))
-            if hi > self.max[j]:
-                self.max[j], self.n_max[j] = hi, 0
-            if hi == self.max[j]:
-                self.n_max[j] += np.uint64(np.count_nonzero(col == hi))
-
-
 class _RunBuilder:
     """Decimates one run pushed in chunks, with the statistics the Rust reader keeps.
 
@@ -186,19 +161,13 @@ class _RunBuilder:
         self.decimator = core.Decimator(
             factor=factor, rate_hz=rate_hz, n_channels=n_channels, min_count=min_count
         )
-        self.range = _Range(n_channels)
-        self.period = 1.0 / rate_hz
+        self.tally = RunTally(n_channels=n_channels, rate_hz=rate_hz)
         self.start_s: float | None = None  # first finite time of the run (settling origin)
         self.settled = False
         self.first_pos: int | None = None
         self.last_pos: int | None = None
-        self.n_rows = 0
         self.n_settling = 0
         self.n_truncated = 0
-        self.first_time = math.nan
-        self.last_time = math.nan
-        self.n_gaps = 0
-        self.max_interval = 0.0
 
     def push(
         self,
@@ -229,7 +198,6 @@ class _RunBuilder:
             self.n_settling += i
             time_s, temperature_c = time_s[i:], temperature_c[i:]
             channels, positions = channels[i:], positions[i:]
-        finite_t = np.isfinite(time_s)
         try:
             self.decimator.push(time_s, temperature_c, channels)
         except TimeOrderError as exc:
@@ -241,19 +209,7 @@ class _RunBuilder:
                 f"time is not strictly increasing: {exc.previous_s!r} s then {exc.time_s!r} s",
                 where=self._where(pos),
             ) from None
-        self.n_rows += time_s.size
-        t = time_s[finite_t]
-        if t.size:
-            if math.isnan(self.first_time):
-                self.first_time = float(t[0])
-            else:
-                t = np.concatenate(([self.last_time], t))
-            if t.size > 1:
-                dt = np.diff(t)
-                self.max_interval = max(self.max_interval, float(dt.max()))
-                self.n_gaps += int(np.count_nonzero(dt > 1.5 * self.period))
-            self.last_time = float(t[-1])
-        self.range.push(channels)
+        self.tally.push(time_s, temperature_c, channels)
 
     def _where(self, pos: int) -> str:
         return f"{self.row_word} {pos}" if self.row_word != "line" else f"{pos}:{self.time_column}"
@@ -269,7 +225,7 @@ class _RunBuilder:
         except InsufficientDataError:
             why = (
                 f"all within settle_s={self.settle_s:g} s of its start"
-                if self.n_rows == 0 and self.n_settling
+                if self.tally.n_rows == 0 and self.n_settling
                 else "no row with finite values in every column"
             )
             warnings.warn(
@@ -278,20 +234,7 @@ class _RunBuilder:
                 stacklevel=4,
             )
             return None
-        stats = RunStats(
-            n_rows=self.n_rows,
-            n_skipped_nonfinite=self.decimator.n_skipped_nonfinite,
-            n_truncated_rows=self.n_truncated,
-            n_gaps=self.n_gaps,
-            max_interval_s=self.max_interval,
-            duration_s=(
-                self.last_time - self.first_time if math.isfinite(self.first_time) else 0.0
-            ),
-            channel_min=self.range.min.copy(),
-            channel_max=self.range.max.copy(),
-            n_at_min=self.range.n_min.copy(),
-            n_at_max=self.range.n_max.copy(),
-        )
+        stats = RunStats.from_raw(self.tally.finish(), n_truncated_rows=self.n_truncated)
         return _make_run(
             self.label, gravity_of(self.label), blocks, self.extra_names, self.source, stats
         )

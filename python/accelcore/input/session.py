@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from accelcore import core
-from accelcore._accelcore import read_run
+from accelcore._accelcore import RawStats, RunTally, read_run
 from accelcore.constants import AXES, DEFAULT_COLUMNS, ORIENTATIONS, SESSION_FORMAT
 from accelcore.errors import SessionFormatError
 from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
@@ -77,6 +77,35 @@ class RunStats:
     channel_max: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     n_at_min: NDArray[np.uint64] = field(default_factory=lambda: np.zeros(0, dtype=np.uint64))
     n_at_max: NDArray[np.uint64] = field(default_factory=lambda: np.zeros(0, dtype=np.uint64))
+
+    @classmethod
+    def from_raw(cls, raw: RawStats, *, n_truncated_rows: int = 0) -> RunStats:
+        """Build the statistics of a run from a :class:`~accelcore._accelcore.RunTally`'s result.
+
+        Parameters
+        ----------
+        raw : accelcore._accelcore.RawStats
+            What the tally counted.
+        n_truncated_rows : int, default 0
+            A last line cut off mid-write and dropped (0 or 1).
+
+        Returns
+        -------
+        RunStats
+        """
+        first, last = raw.first_time_s, raw.last_time_s
+        return cls(
+            n_rows=raw.n_rows,
+            n_skipped_nonfinite=raw.n_skipped_nonfinite,
+            n_truncated_rows=n_truncated_rows,
+            n_gaps=raw.n_gaps,
+            max_interval_s=raw.max_interval_s,
+            duration_s=last - first if math.isfinite(first) else 0.0,
+            channel_min=raw.channel_min,
+            channel_max=raw.channel_max,
+            n_at_min=raw.n_at_min,
+            n_at_max=raw.n_at_max,
+        )
 
     @property
     def mean_rate_hz(self) -> float:
@@ -278,17 +307,9 @@ class Session:
             )
             dec.push(time_s, table[names["temperature"]], channels)
             blocks = dec.finish()
-            finite = time_s[np.isfinite(time_s)]
-            lo, hi, at_lo, at_hi = _channel_ranges(channels)
-            stats = RunStats(
-                n_rows=int(time_s.shape[0]),
-                n_skipped_nonfinite=dec.n_skipped_nonfinite,
-                duration_s=float(finite[-1] - finite[0]) if finite.size else 0.0,
-                channel_min=lo,
-                channel_max=hi,
-                n_at_min=at_lo,
-                n_at_max=at_hi,
-            )
+            tally = RunTally(n_channels=channels.shape[1], rate_hz=rate_hz)
+            tally.push(time_s, table[names["temperature"]], channels)
+            stats = RunStats.from_raw(tally.finish())
             built.append(
                 _make_run(orientation.strip().upper(), gravity, blocks, extra_names, None, stats)
             )
@@ -301,21 +322,6 @@ class Session:
             path=None,
             decimation_factor=decimation_factor,
         )
-
-
-def _channel_ranges(
-    channels: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.uint64], NDArray[np.uint64]]:
-    """Per column: finite min and max and how many samples sit exactly on each (clipping)."""
-    masked = np.where(np.isfinite(channels), channels, np.nan)
-    with np.errstate(all="ignore"):
-        any_finite = np.isfinite(masked).any(axis=0)
-        safe = np.where(any_finite, 0.0, 1.0)  # all-NaN columns: report inf, no warning
-        lo = np.where(any_finite, np.nanmin(np.where(any_finite, masked, safe), axis=0), np.inf)
-        hi = np.where(any_finite, np.nanmax(np.where(any_finite, masked, safe), axis=0), -np.inf)
-    at_lo = (masked == lo).sum(axis=0).astype(np.uint64)
-    at_hi = (masked == hi).sum(axis=0).astype(np.uint64)
-    return lo, hi, at_lo, at_hi
 
 
 class _Blocks(Protocol):

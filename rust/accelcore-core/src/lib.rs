@@ -12,6 +12,8 @@
 //! - [`TemperatureBinner`]: per-temperature-bin count, mean and variance.
 //! - [`LeastSquares`]: incremental weighted least squares by Givens QR.
 //! - [`read_run`]: a streaming reader of session logs straight into a [`Decimator`].
+//! - [`RunTally`]: what a run's raw rows looked like (rows, non-finite rows, time
+//!   span, gaps, channel ranges), shared by every reader.
 //! - [`running_median`]: a centred running median (the data-quality checks' smoother).
 
 pub mod binning;
@@ -23,6 +25,7 @@ pub mod pipeline;
 pub mod reader;
 pub mod regression;
 pub mod robust;
+pub mod tally;
 
 pub use binning::{BinnedStats, BinnerConfig, TemperatureBinner};
 pub use compensate::compensate;
@@ -31,8 +34,9 @@ pub use error::{Error, Result};
 pub use features::first_order_lag;
 pub use pipeline::{FusedPipeline, PipelineConfig, PipelineResult};
 pub use reader::{
-    merge_runs, plan_split, read_run, read_run_from, read_run_hashed, read_run_range, ChannelRange,
-    CsvFormat, RunData, SplitPlan,
+    merge_runs, plan_split, read_run, read_run_from, read_run_hashed, read_run_range, CsvFormat,
+    RunData, SplitPlan,
 };
 pub use regression::{LeastSquares, LstsqSolution};
 pub use robust::running_median;
+pub use tally::{ChannelRange, RawStats, RunTally};
