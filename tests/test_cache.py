@@ -744,3 +744,26 @@ def test_session_from_a_hit_is_a_plain_session(aged: dict[str, Path], tmp_path: 
     for run in warm.runs:
         for a in (run.time_s, run.temperature_c, run.output, run.count):
             assert a.flags.c_contiguous
+
+
+def test_entries_are_private_and_stale_temporaries_of_atomic_writes_are_pruned(
+    aged: dict[str, Path], tmp_path: Path
+) -> None:
+    load_session(aged["prune"], cache=tmp_path / "c")
+    written = entries(tmp_path / "c")
+    assert written and all(e.stat().st_mode & 0o777 == 0o600 for e in written)
+    key = "ab" * 32
+    old, new = (
+        tmp_path / f".{key}{cache.SUFFIX}.x1y2z3.tmp",
+        tmp_path / f".{key}{cache.SUFFIX}.a.tmp",
+    )
+    other = tmp_path / f".{key[:-1]}{cache.SUFFIX}.old.tmp"  # not an entry's name
+    for p in (old, new, other):
+        p.write_bytes(b"x" * 10)
+    _set_mtime([old, other], 7200)
+    assert cache.prune(tmp_path, max_bytes=1e9) == 0
+    assert sorted(p.name for p in tmp_path.iterdir() if p.is_file()) == sorted(
+        [new.name, other.name]
+    )
+    assert cache.clear(tmp_path) == 0
+    assert sorted(p.name for p in tmp_path.iterdir() if p.is_file()) == [other.name]

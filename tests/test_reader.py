@@ -3,13 +3,18 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from numpy.typing import NDArray
 
 import accelcore
-from accelcore._accelcore import read_run
+from accelcore._accelcore import RunTally, read_run
 from accelcore.reference import Decimator as RefDecimator
+from strategies import DecimatorCase, chunks, decimator_cases
 
 HEADER = "time_s,temp_c,x,y,z\n"
 
@@ -195,3 +200,86 @@ def test_session_hashes_are_sha256_of_the_files(tmp_path: Path) -> None:
         if f.suffix in (".csv", ".toml") and f.name != "truth.toml"
     }
     assert session.file_hashes() == expected
+
+
+# --------------------------------------------------------------------------- RunTally
+
+
+def _plain_raw_stats(
+    time_s: NDArray[np.float64],
+    temperature_c: NDArray[np.float64],
+    channels: NDArray[np.float64],
+    rate_hz: float,
+) -> dict[str, Any]:
+    """RawStats computed the plainest NumPy way, from the whole arrays."""
+    t = time_s[np.isfinite(time_s)]
+    dt = np.diff(t)
+    ok = np.isfinite(time_s) & np.isfinite(temperature_c) & np.isfinite(channels).all(axis=1)
+    lo, hi, at_lo, at_hi = [], [], [], []
+    for c in range(channels.shape[1]):
+        col = channels[:, c][np.isfinite(channels[:, c])]
+        lo.append(col.min() if col.size else np.inf)
+        hi.append(col.max() if col.size else -np.inf)
+        at_lo.append(np.count_nonzero(col == lo[-1]))
+        at_hi.append(np.count_nonzero(col == hi[-1]))
+    return {
+        "n_rows": time_s.shape[0],
+        "n_skipped_nonfinite": int(np.count_nonzero(~ok)),
+        "first_time_s": t[0] if t.size else np.nan,
+        "last_time_s": t[-1] if t.size else np.nan,
+        "n_gaps": int(np.count_nonzero(dt > 1.5 * (1.0 / rate_hz))),
+        "max_interval_s": float(dt.max()) if dt.size else 0.0,
+        "channel_min": np.array(lo),
+        "channel_max": np.array(hi),
+        "n_at_min": np.array(at_lo, dtype=np.uint64),
+        "n_at_max": np.array(at_hi, dtype=np.uint64),
+    }
+
+
+@given(case=decimator_cases(), clip=st.sampled_from([None, 40.0, 1.0]))
+def test_run_tally_equals_plain_numpy_however_chunked(
+    case: DecimatorCase, clip: float | None
+) -> None:
+    time_s, temperature_c, channels = case.stream.arrays()
+    if clip is not None:  # many samples at the rails
+        offset = np.nanmedian(channels) if np.isfinite(channels).any() else 0.0
+        channels = np.clip(channels, offset - clip, offset + clip)
+    rate_hz, n_channels = case.config["rate_hz"], case.config["n_channels"]
+    chunked = RunTally(n_channels=n_channels, rate_hz=rate_hz)
+    merged = RunTally(n_channels=n_channels, rate_hz=rate_hz)
+    for t, temp, ch in chunks(case.bounds, time_s, temperature_c, channels):
+        chunked.push(t, temp, ch)
+        piece = RunTally(n_channels=n_channels, rate_hz=rate_hz)
+        piece.push(t, temp, ch)
+        merged.merge(piece)
+    want = _plain_raw_stats(time_s, temperature_c, channels, rate_hz)
+    for tally in (chunked, merged):
+        got = tally.finish()
+        for name, value in want.items():
+            np.testing.assert_array_equal(getattr(got, name), value, err_msg=name)
+        assert got.n_at_min.dtype == np.uint64
+
+
+def test_run_tally_rejects_bad_input() -> None:
+    with pytest.raises(accelcore.ParameterError):
+        RunTally(n_channels=1, rate_hz=0.0)
+    tally = RunTally(n_channels=2, rate_hz=20.0)
+    with pytest.raises(accelcore.ShapeError):
+        tally.push(np.zeros(3), np.zeros(3), np.zeros((3, 1)))
+    assert tally.n_rows == 0
+    with pytest.raises(accelcore.IncompatibleError):
+        tally.merge(RunTally(n_channels=3, rate_hz=20.0))
+
+
+def test_the_reader_statistics_are_a_tally_of_the_rows(tmp_path: Path) -> None:
+    path = _log(tmp_path, HEADER + _rows(95) + "9.0,20.5,nan,1.48,1.84\n")
+    data = read_run(path)
+    raw = np.genfromtxt(path, delimiter=",", skip_header=1)
+    tally = RunTally(n_channels=3, rate_hz=20.0)
+    tally.push(raw[:, 0], raw[:, 1], raw[:, 2:])
+    want = tally.finish()
+    assert data.n_gaps == want.n_gaps == 1
+    for name in ("n_rows", "n_skipped_nonfinite", "first_time_s", "last_time_s", "max_interval_s"):
+        assert getattr(data, name) == getattr(want, name), name
+    for name in ("channel_min", "channel_max", "n_at_min", "n_at_max"):
+        np.testing.assert_array_equal(getattr(data, name), getattr(want, name), err_msg=name)

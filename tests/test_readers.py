@@ -146,7 +146,7 @@ def test_orientation_log_does_not_depend_on_the_chunk_size(
 ) -> None:
     log = _continuous_log(tmp_path / "log.csv", ref)
     whole = readers.read_orientation_log(log, units="V", rate_hz=RATE)
-    monkeypatch.setattr(readers, "CHUNK_ROWS", 997)  # runs change mid-chunk and at its edge
+    monkeypatch.setattr(readers.common, "CHUNK_ROWS", 997)  # runs change mid-chunk and at its edge
     chunked = readers.read_orientation_log(log, units="V", rate_hz=RATE)
     assert_same_blocks(chunked, whole)
     for ra, rb in zip(chunked.runs, whole.runs, strict=True):
@@ -318,7 +318,7 @@ def test_parquet_orientation_column_gives_the_folder_calibration(
     ref: Reference, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     path = _parquet(tmp_path / "s.parquet", [(r.orientation, r) for r in ref.sim.runs])
-    monkeypatch.setattr(readers, "CHUNK_ROWS", 4_099)
+    monkeypatch.setattr(readers.common, "CHUNK_ROWS", 4_099)
     session = readers.read_parquet(
         path, units="V", rate_hz=RATE, orientation_column="orientation", sensor="ADXL335"
     )

@@ -412,6 +412,104 @@ class RunData:
     def sha256(self) -> str | None:
         """Hex SHA-256 of the bytes read, with ``read_run(..., sha256=True)``; else None."""
 
+@final
+class RawStats:
+    """What a run's raw rows looked like: the result of :class:`RunTally`.
+
+    Times are over the rows with a finite time only; channel ranges over the
+    finite values only (a channel without one: ``min = inf``, ``max = -inf``, counts 0).
+    """
+
+    @property
+    def n_rows(self) -> int:
+        """Rows counted."""
+
+    @property
+    def n_skipped_nonfinite(self) -> int:
+        """Rows with a NaN or infinite time, temperature or channel value (as the decimator skips)."""
+
+    @property
+    def first_time_s(self) -> float:
+        """First finite time, s (NaN when there is none)."""
+
+    @property
+    def last_time_s(self) -> float:
+        """Last finite time, s (NaN when there is none)."""
+
+    @property
+    def n_gaps(self) -> int:
+        """Intervals between consecutive finite times longer than ``1.5 * (1 / rate_hz)``."""
+
+    @property
+    def max_interval_s(self) -> float:
+        """Longest interval between consecutive finite times, s (0 for fewer than two)."""
+
+    @property
+    def channel_min(self) -> NDArray[np.float64]:
+        """Smallest finite value of each channel."""
+
+    @property
+    def channel_max(self) -> NDArray[np.float64]:
+        """Largest finite value of each channel."""
+
+    @property
+    def n_at_min(self) -> NDArray[np.uint64]:
+        """Values exactly at each channel's minimum (many: clipping)."""
+
+    @property
+    def n_at_max(self) -> NDArray[np.uint64]:
+        """Values exactly at each channel's maximum (many: clipping)."""
+
+@final
+class RunTally:
+    """Statistics of a run's raw rows, before decimation (the readers' one accumulator).
+
+    Parameters
+    ----------
+    n_channels : int, default 3
+        Data channels besides time and temperature.
+    rate_hz : float, default 20.0
+        Nominal sample rate, Hz (an interval over 1.5 periods is a gap).
+
+    Notes
+    -----
+    NaN policy: a row with any NaN or infinite value is counted in
+    ``n_skipped_nonfinite`` and its finite values still count. Time order is not
+    checked (the decimator does). The result does not depend on how the rows
+    are chunked, and ``a.merge(b)`` (``b``'s rows after ``a``'s) equals one pass.
+    """
+
+    def __new__(cls, *, n_channels: int = 3, rate_hz: float = 20.0) -> RunTally: ...
+    def push(self, time_s: ArrayLike, temperature_c: ArrayLike, channels: ArrayLike) -> None:
+        """Count a chunk of ``n`` rows: time (s), temperature (°C), channels ``(n, n_channels)``.
+
+        Raises
+        ------
+        accelcore.ShapeError
+            If the lengths differ or ``channels`` has the wrong number of columns;
+            nothing is counted.
+        """
+
+    def merge(self, other: RunTally) -> None:
+        """Add a tally whose rows follow this one's; the interval across the cut counts.
+
+        Raises
+        ------
+        accelcore.IncompatibleError
+            If the channel counts or rates differ.
+        """
+
+    def finish(self) -> RawStats:
+        """Return the statistics of every row counted so far; state is kept."""
+
+    @property
+    def n_channels(self) -> int: ...
+    @property
+    def rate_hz(self) -> float: ...
+    @property
+    def n_rows(self) -> int:
+        """Rows counted so far."""
+
 def read_run(
     path: str,
     /,

@@ -1,8 +1,11 @@
 """Input room: from files (or arrays) on disk to decimated runs.
 
-Holds the session format (``session.toml``), the readers (the Rust CSV reader,
-single-log, Parquet and TDMS files), the persistent run cache and the data-quality
-screening of runs. Everything downstream receives a :class:`~accelcore.input.session.Session`.
+Holds the session format (:mod:`.format`, the one reader of ``session.toml``), the
+sessions and the Rust CSV reader (:mod:`.session`), the other readers (:mod:`.readers`:
+single-log, Parquet and TDMS files), the persistent run cache (:mod:`.cache`, its
+entry file in :mod:`.cache_entry`) and the data-quality screening of runs
+(:mod:`.quality`). Run statistics come from the core's ``RunTally`` everywhere.
+Everything downstream receives a :class:`~accelcore.input.session.Session`.
 
 May import: the foundation (:mod:`accelcore.errors`, :mod:`accelcore.core`, the Rust
 extension, :mod:`accelcore.datasheets`). Never the model, fitting, result,

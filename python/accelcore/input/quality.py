@@ -32,7 +32,6 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -41,9 +40,7 @@ from numpy.typing import NDArray
 from accelcore._accelcore import running_median
 from accelcore.constants import AXES
 from accelcore.errors import DataQualityWarning
-
-if TYPE_CHECKING:
-    from accelcore.input.session import Run, Session
+from accelcore.input.session import Run, Session
 
 __all__ = ["QualityIssue", "check_session", "excluded_blocks"]
 

@@ -10,10 +10,8 @@ arrays or pandas DataFrames.
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
-import tomllib
 from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -24,18 +22,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from accelcore import core
-from accelcore._accelcore import read_run
-from accelcore.constants import (
-    AXES,
-    DEFAULT_COLUMNS,
-    DELIMITERS,
-    ORIENTATIONS,
-    SESSION_FORMAT,
-    TIME_UNITS,
-    UNITS,
-)
-from accelcore.errors import AccelcoreIOError, SessionFormatError
+from accelcore._accelcore import RawStats, RunTally, read_run
+from accelcore.constants import AXES, DEFAULT_COLUMNS, ORIENTATIONS, SESSION_FORMAT
+from accelcore.errors import SessionFormatError
 from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
+from accelcore.input.format import SessionFormat, check_units, gravity_of
 
 __all__ = [
     "AXES",
@@ -44,32 +35,12 @@ __all__ = [
     "Run",
     "RunStats",
     "Session",
+    "SessionFormat",
     "gravity_of",
     "load_session",
 ]
 
 FORMAT = SESSION_FORMAT
-
-
-def gravity_of(orientation: str) -> NDArray[np.float64]:
-    """Return the gravity vector in g that an orientation label implies.
-
-    Parameters
-    ----------
-    orientation : str
-        One of ``OX+ OX- OY+ OY- OZ+ OZ-`` (case-insensitive).
-
-    Returns
-    -------
-    ndarray of float64, shape (3,)
-        Gravity on x, y, z in g.
-    """
-    key = orientation.strip().upper()
-    if key not in ORIENTATIONS:
-        raise SessionFormatError(
-            f"unknown orientation {orientation!r}; expected one of {', '.join(ORIENTATIONS)}"
-        )
-    return np.array(ORIENTATIONS[key], dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -106,6 +77,35 @@ class RunStats:
     channel_max: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     n_at_min: NDArray[np.uint64] = field(default_factory=lambda: np.zeros(0, dtype=np.uint64))
     n_at_max: NDArray[np.uint64] = field(default_factory=lambda: np.zeros(0, dtype=np.uint64))
+
+    @classmethod
+    def from_raw(cls, raw: RawStats, *, n_truncated_rows: int = 0) -> RunStats:
+        """Build the statistics of a run from a :class:`~accelcore._accelcore.RunTally`'s result.
+
+        Parameters
+        ----------
+        raw : accelcore._accelcore.RawStats
+            What the tally counted.
+        n_truncated_rows : int, default 0
+            A last line cut off mid-write and dropped (0 or 1).
+
+        Returns
+        -------
+        RunStats
+        """
+        first, last = raw.first_time_s, raw.last_time_s
+        return cls(
+            n_rows=raw.n_rows,
+            n_skipped_nonfinite=raw.n_skipped_nonfinite,
+            n_truncated_rows=n_truncated_rows,
+            n_gaps=raw.n_gaps,
+            max_interval_s=raw.max_interval_s,
+            duration_s=last - first if math.isfinite(first) else 0.0,
+            channel_min=raw.channel_min,
+            channel_max=raw.channel_max,
+            n_at_min=raw.n_at_min,
+            n_at_max=raw.n_at_max,
+        )
 
     @property
     def mean_rate_hz(self) -> float:
@@ -181,6 +181,9 @@ class Session:
         Raw samples per block.
     file_sha256 : dict of str to str
         SHA-256 of ``session.toml`` and every run file, taken while reading them.
+    format : SessionFormat or None
+        What ``session.toml`` says (delimiter, columns, time unit, run files...),
+        when read from disk; None for :meth:`from_arrays` and the other readers.
     """
 
     runs: tuple[Run, ...]
@@ -191,6 +194,7 @@ class Session:
     path: str | None = None
     decimation_factor: int = 10
     file_sha256: dict[str, str] = field(default_factory=dict)
+    format: SessionFormat | None = None
 
     @property
     def orientations(self) -> tuple[str, ...]:
@@ -276,7 +280,7 @@ class Session:
         -------
         Session
         """
-        _check_units(units, "units")
+        check_units(units, "units")
         names = {**DEFAULT_COLUMNS, **(columns or {})}
         built = []
         for orientation, data in runs:
@@ -303,17 +307,9 @@ class Session:
             )
             dec.push(time_s, table[names["temperature"]], channels)
             blocks = dec.finish()
-            finite = time_s[np.isfinite(time_s)]
-            lo, hi, at_lo, at_hi = _channel_ranges(channels)
-            stats = RunStats(
-                n_rows=int(time_s.shape[0]),
-                n_skipped_nonfinite=dec.n_skipped_nonfinite,
-                duration_s=float(finite[-1] - finite[0]) if finite.size else 0.0,
-                channel_min=lo,
-                channel_max=hi,
-                n_at_min=at_lo,
-                n_at_max=at_hi,
-            )
+            tally = RunTally(n_channels=channels.shape[1], rate_hz=rate_hz)
+            tally.push(time_s, table[names["temperature"]], channels)
+            stats = RunStats.from_raw(tally.finish())
             built.append(
                 _make_run(orientation.strip().upper(), gravity, blocks, extra_names, None, stats)
             )
@@ -326,21 +322,6 @@ class Session:
             path=None,
             decimation_factor=decimation_factor,
         )
-
-
-def _channel_ranges(
-    channels: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.uint64], NDArray[np.uint64]]:
-    """Per column: finite min and max and how many samples sit exactly on each (clipping)."""
-    masked = np.where(np.isfinite(channels), channels, np.nan)
-    with np.errstate(all="ignore"):
-        any_finite = np.isfinite(masked).any(axis=0)
-        safe = np.where(any_finite, 0.0, 1.0)  # all-NaN columns: report inf, no warning
-        lo = np.where(any_finite, np.nanmin(np.where(any_finite, masked, safe), axis=0), np.inf)
-        hi = np.where(any_finite, np.nanmax(np.where(any_finite, masked, safe), axis=0), -np.inf)
-    at_lo = (masked == lo).sum(axis=0).astype(np.uint64)
-    at_hi = (masked == hi).sum(axis=0).astype(np.uint64)
-    return lo, hi, at_lo, at_hi
 
 
 class _Blocks(Protocol):
@@ -377,35 +358,6 @@ def _make_run(
         source=source,
         stats=stats,
     )
-
-
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
-def _check_units(units: object, where: str) -> str:
-    if not isinstance(units, str) or units not in UNITS:
-        raise SessionFormatError(f"{where}: units must be one of {', '.join(UNITS)}, got {units!r}")
-    return str(units)
-
-
-def _read_toml(path: Path) -> dict[str, Any]:
-    toml_path = path / "session.toml"
-    if not path.exists():
-        raise AccelcoreIOError(f"{path}: no such session folder")
-    if not toml_path.is_file():
-        raise SessionFormatError(f"{toml_path}: missing (a session folder holds a session.toml)")
-    try:
-        with open(toml_path, "rb") as fh:
-            return tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise SessionFormatError(f"{toml_path}: not valid TOML: {exc}") from exc
-    except UnicodeDecodeError as exc:
-        raise SessionFormatError(f"{toml_path}: not UTF-8 text: {exc}") from exc
 
 
 class _ReadParams(TypedDict):
@@ -477,71 +429,16 @@ def load_session(
     2 s before they are read are not cached. ``session.toml`` is always read
     and hashed.
     """
-    folder = Path(path)
-    meta = _read_toml(folder)
-    where = str(folder / "session.toml")
-    fmt = meta.get("format")
-    if fmt is None:
-        raise SessionFormatError(f"{where}: missing required key 'format' (= \"{FORMAT}\")")
-    if fmt != FORMAT:
-        raise SessionFormatError(f"{where}: format {fmt!r} is not supported; expected {FORMAT!r}")
-    for key in ("units", "rate_hz"):
-        if key not in meta:
-            raise SessionFormatError(f"{where}: missing required key '{key}'")
-    units = _check_units(meta["units"], where)
-    rate_hz = meta["rate_hz"]
-    if not isinstance(rate_hz, (int, float)) or not math.isfinite(rate_hz) or rate_hz <= 0:
-        raise SessionFormatError(f"{where}: rate_hz must be a positive number, got {rate_hz!r}")
-    delimiter = meta.get("delimiter", ",")
-    if not isinstance(delimiter, str) or delimiter not in DELIMITERS:
-        raise SessionFormatError(f"{where}: delimiter must be ',', '\\t' or ';', got {delimiter!r}")
-    time_unit = meta.get("time_unit", "s")
-    if not isinstance(time_unit, str) or time_unit not in TIME_UNITS:
-        raise SessionFormatError(
-            f"{where}: time_unit must be one of {', '.join(TIME_UNITS)}, got {time_unit!r}"
-        )
-    given_columns = meta.get("columns", {})
-    if not isinstance(given_columns, dict):
-        raise SessionFormatError(f"{where}: [columns] must be a table of column names")
-    bad = [k for k, v in given_columns.items() if not isinstance(v, str)]
-    if bad:
-        raise SessionFormatError(
-            f"{where}: [columns] values must be strings (column names): {', '.join(bad)}"
-        )
-    columns = {**DEFAULT_COLUMNS, **given_columns}
-    unknown = set(columns) - set(DEFAULT_COLUMNS)
-    if unknown:
-        raise SessionFormatError(
-            f"{where}: unknown key(s) in [columns]: {', '.join(sorted(unknown))}"
-        )
-    run_tables = meta.get("run")
-    if not isinstance(run_tables, list) or not run_tables:
-        raise SessionFormatError(f"{where}: no [[run]] table; a session needs at least one run")
-    specs: list[tuple[str, NDArray[np.float64], Path]] = []
-    for i, table in enumerate(run_tables, start=1):
-        if not isinstance(table, dict):
-            raise SessionFormatError(f"{where}: [[run]] #{i} must be a table")
-        for key in ("file", "orientation"):
-            if key not in table:
-                raise SessionFormatError(f"{where}: [[run]] #{i} is missing required key '{key}'")
-        try:
-            gravity = gravity_of(str(table["orientation"]))
-        except SessionFormatError as exc:
-            raise SessionFormatError(f"{where}: [[run]] #{i}: {exc}") from None
-        file = folder / str(table["file"])
-        if not file.is_file():
-            raise AccelcoreIOError(f"{file}: run file does not exist ({where}, [[run]] #{i})")
-        specs.append((str(table["orientation"]).strip().upper(), gravity, file))
-
+    fmt = SessionFormat.read(path)
     params: _ReadParams = {
-        "delimiter": DELIMITERS[delimiter],
-        "time_column": columns["time"],
-        "temperature_column": columns["temperature"],
-        "channel_columns": [columns["x"], columns["y"], columns["z"]],
+        "delimiter": fmt.separator,
+        "time_column": fmt.columns["time"],
+        "temperature_column": fmt.columns["temperature"],
+        "channel_columns": list(fmt.channel_columns),
         "keep_extra_columns": True,
-        "time_scale_to_s": TIME_UNITS[time_unit],
+        "time_scale_to_s": fmt.time_scale_to_s,
         "factor": decimation_factor,
-        "rate_hz": float(rate_hz),
+        "rate_hz": fmt.rate_hz,
         "min_count": min_count,
     }
 
@@ -550,8 +447,7 @@ def load_session(
         assert data.sha256 is not None  # asked for
         return RunRecord.from_run_data(data), data.sha256
 
-    toml_file = folder / "session.toml"
-    run_files = [f for _, _, f in specs]
+    run_files = list(fmt.run_files)
     store = RunCache.open(cache)
     found: list[tuple[RunRecord, str] | None] = [None] * len(run_files)
     probes: list[Probe | None] = [None] * len(run_files)
@@ -559,7 +455,6 @@ def load_session(
         for i, (hit, probe) in enumerate(store.lookup_all(run_files, params)):
             found[i], probes[i] = hit, probe
     missing = [i for i, hit in enumerate(found) if hit is None]
-    toml_sha256 = _sha256(toml_file)
     if len(missing) > 1:
         # The Rust reader releases the GIL: read the runs on all cores at once, each
         # hashed (provenance) in the same pass as it is parsed.
@@ -573,9 +468,9 @@ def load_session(
             store.store(probes[i], rec, sha)  # only if the file did not change meanwhile
         store.finish()
     runs = []
-    file_sha256 = {toml_file.name: toml_sha256}
-    for i, (orientation, gravity, file) in enumerate(specs):
-        data, file_sha256[file.name] = found[i] or fresh[i]
+    file_sha256 = {fmt.toml_path.name: fmt.sha256}
+    for i, spec in enumerate(fmt.runs):
+        data, file_sha256[spec.path.name] = found[i] or fresh[i]
         stats = RunStats(
             n_rows=data.n_rows,
             n_skipped_nonfinite=data.n_skipped_nonfinite,
@@ -589,17 +484,23 @@ def load_session(
             n_at_max=data.n_at_max,
         )
         runs.append(
-            _make_run(orientation, gravity, data.blocks, data.channel_names[3:], str(file), stats)
+            _make_run(
+                spec.orientation,
+                spec.gravity_g,
+                data.blocks,
+                data.channel_names[3:],
+                str(spec.path),
+                stats,
+            )
         )
-    sensor = meta.get("sensor") or None
-    serial = meta.get("serial") or None
     return Session(
         runs=tuple(runs),
-        units=units,
-        rate_hz=float(rate_hz),
-        sensor=str(sensor) if sensor else None,
-        serial=str(serial) if serial else None,
-        path=str(folder),
+        units=fmt.units,
+        rate_hz=fmt.rate_hz,
+        sensor=fmt.sensor,
+        serial=fmt.serial,
+        path=str(fmt.folder),
         decimation_factor=decimation_factor,
         file_sha256=file_sha256,
+        format=fmt,
     )

@@ -13,6 +13,8 @@
 //! - [`LeastSquares`]: incremental weighted least squares by Givens QR.
 //! - [`BlockedLeastSquares`]: per-block factors; held-out error of any folds by merging them.
 //! - [`read_run`]: a streaming reader of session logs straight into a [`Decimator`].
+//! - [`RunTally`]: what a run's raw rows looked like (rows, non-finite rows, time
+//!   span, gaps, channel ranges), shared by every reader.
 //! - [`running_median`]: a centred running median (the data-quality checks' smoother).
 
 pub mod binning;
@@ -25,6 +27,7 @@ pub mod pipeline;
 pub mod reader;
 pub mod regression;
 pub mod robust;
+pub mod tally;
 
 pub use binning::{BinnedStats, BinnerConfig, TemperatureBinner};
 pub use compensate::compensate;
@@ -34,8 +37,9 @@ pub use features::first_order_lag;
 pub use heldout::{BlockedLeastSquares, HeldOutFit};
 pub use pipeline::{FusedPipeline, PipelineConfig, PipelineResult};
 pub use reader::{
-    merge_runs, plan_split, read_run, read_run_from, read_run_hashed, read_run_range, ChannelRange,
-    CsvFormat, RunData, SplitPlan,
+    merge_runs, plan_split, read_run, read_run_from, read_run_hashed, read_run_range, CsvFormat,
+    RunData, SplitPlan,
 };
 pub use regression::{LeastSquares, LstsqSolution};
 pub use robust::running_median;
+pub use tally::{ChannelRange, RawStats, RunTally};

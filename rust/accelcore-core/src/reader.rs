@@ -24,6 +24,7 @@ use sha2::{Digest, Sha256};
 
 use crate::decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 use crate::error::{Error, Result};
+use crate::tally::{ChannelRange, RawStats, RunTally};
 
 /// How to read one log file.
 #[derive(Debug, Clone, PartialEq)]
@@ -55,50 +56,6 @@ impl Default for CsvFormat {
     }
 }
 
-/// Per-channel range seen in the raw samples, to detect clipping at the rails.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ChannelRange {
-    /// Smallest finite raw value.
-    pub min: f64,
-    /// Largest finite raw value.
-    pub max: f64,
-    /// Samples exactly equal to `min`.
-    pub n_at_min: u64,
-    /// Samples exactly equal to `max`.
-    pub n_at_max: u64,
-}
-
-impl Default for ChannelRange {
-    fn default() -> Self {
-        Self {
-            min: f64::INFINITY,
-            max: f64::NEG_INFINITY,
-            n_at_min: 0,
-            n_at_max: 0,
-        }
-    }
-}
-
-impl ChannelRange {
-    fn push(&mut self, v: f64) {
-        if !v.is_finite() {
-            return;
-        }
-        if v < self.min {
-            self.min = v;
-            self.n_at_min = 1;
-        } else if v == self.min {
-            self.n_at_min += 1;
-        }
-        if v > self.max {
-            self.max = v;
-            self.n_at_max = 1;
-        } else if v == self.max {
-            self.n_at_max += 1;
-        }
-    }
-}
-
 /// One run read and decimated.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunData {
@@ -124,6 +81,44 @@ pub struct RunData {
     pub max_interval_s: f64,
     /// Raw range of each decimated channel (clipping detection).
     pub channel_ranges: Vec<ChannelRange>,
+}
+
+impl RunData {
+    /// A run from its blocks and the statistics of its raw rows.
+    pub fn new(
+        header: Vec<String>,
+        channel_names: Vec<String>,
+        blocks: DecimatedBlocks,
+        stats: RawStats,
+        n_truncated_rows: u64,
+    ) -> Self {
+        Self {
+            header,
+            channel_names,
+            blocks,
+            n_rows: stats.n_rows,
+            n_skipped_nonfinite: stats.n_skipped_nonfinite,
+            n_truncated_rows,
+            first_time_s: stats.first_time_s,
+            last_time_s: stats.last_time_s,
+            n_gaps: stats.n_gaps,
+            max_interval_s: stats.max_interval_s,
+            channel_ranges: stats.channel_ranges,
+        }
+    }
+
+    /// The statistics of the raw rows (everything but `n_truncated_rows`).
+    pub fn raw_stats(&self) -> RawStats {
+        RawStats {
+            n_rows: self.n_rows,
+            n_skipped_nonfinite: self.n_skipped_nonfinite,
+            first_time_s: self.first_time_s,
+            last_time_s: self.last_time_s,
+            n_gaps: self.n_gaps,
+            max_interval_s: self.max_interval_s,
+            channel_ranges: self.channel_ranges.clone(),
+        }
+    }
 }
 
 const BATCH_ROWS: usize = 8192;
@@ -659,10 +654,9 @@ fn read_body<R: BufRead>(
     })?;
     let mut batch = Batch::new(n_channels);
     let mut fields: Vec<f64> = vec![0.0; n_fields];
-    let mut ranges = vec![ChannelRange::default(); n_channels];
-    let (mut n_rows, mut n_truncated, mut n_gaps) = (0u64, 0u64, 0u64);
-    let (mut first_time, mut last_time, mut max_interval) = (f64::NAN, f64::NAN, 0.0f64);
-    let nominal_period = 1.0 / decimator.config().rate_hz;
+    let mut tally = RunTally::new(n_channels, decimator.config().rate_hz)?;
+    let mut row: Vec<f64> = vec![0.0; n_channels];
+    let mut n_truncated = 0u64;
     let time_field = columns.time as u64 + 1;
     let mut lines = BlockLines::new(&mut reader);
     while let Some(line) = lines.next_line(path, line_no + 1)? {
@@ -701,34 +695,22 @@ fn read_body<R: BufRead>(
             ));
         }
         let t = fields[columns.time] * format.time_scale_to_s;
-        if t.is_finite() {
-            if first_time.is_nan() {
-                first_time = t;
-            } else {
-                let dt = t - last_time;
-                if dt > max_interval {
-                    max_interval = dt;
-                }
-                if dt > 1.5 * nominal_period {
-                    n_gaps += 1;
-                }
-            }
-            last_time = t;
+        let temperature = fields[columns.temperature];
+        for (slot, &c) in row.iter_mut().zip(&columns.channels) {
+            *slot = fields[c];
         }
+        tally.push_row(t, temperature, &row);
         batch.time_s.push(t);
-        batch.temperature_c.push(fields[columns.temperature]);
-        for (range, &c) in ranges.iter_mut().zip(&columns.channels) {
-            let v = fields[c];
-            range.push(v);
-            batch.channels.push(v);
-        }
+        batch.temperature_c.push(temperature);
+        batch.channels.extend_from_slice(&row);
         batch.lines.push(line_no);
-        n_rows += 1;
         if batch.time_s.len() == batch.rows {
             batch.flush(&mut decimator, n_channels, path, time_field)?;
         }
     }
     batch.flush(&mut decimator, n_channels, path, time_field)?;
+    let stats = tally.finish();
+    let n_rows = stats.n_rows;
     if n_rows == 0 && !allow_empty {
         return Err(parse_error(
             path,
@@ -752,19 +734,13 @@ fn read_body<R: BufRead>(
             )
         })?
     };
-    Ok(RunData {
+    Ok(RunData::new(
         header,
-        channel_names: columns.names,
+        columns.names,
         blocks,
-        n_rows,
-        n_skipped_nonfinite: decimator.n_skipped_nonfinite(),
-        n_truncated_rows: n_truncated,
-        first_time_s: first_time,
-        last_time_s: last_time,
-        n_gaps,
-        max_interval_s: max_interval,
-        channel_ranges: ranges,
-    })
+        stats,
+        n_truncated,
+    ))
 }
 
 /// How to read one log in pieces: byte ranges that start at line starts, and the
@@ -926,25 +902,15 @@ pub fn merge_runs(pieces: &[RunData], min_count: usize, rate_hz: f64) -> Result<
         });
     };
     let nc = first.blocks.n_channels;
-    let mut out = RunData {
-        header: first.header.clone(),
-        channel_names: first.channel_names.clone(),
-        blocks: DecimatedBlocks {
-            n_channels: nc,
-            ..DecimatedBlocks::default()
-        },
-        n_rows: 0,
-        n_skipped_nonfinite: 0,
-        n_truncated_rows: 0,
-        first_time_s: f64::NAN,
-        last_time_s: f64::NAN,
-        n_gaps: 0,
-        max_interval_s: 0.0,
-        channel_ranges: vec![ChannelRange::default(); first.channel_ranges.len()],
+    let mut tally = RunTally::new(first.channel_ranges.len(), rate_hz)?;
+    let mut n_truncated = 0u64;
+    let mut blocks = DecimatedBlocks {
+        n_channels: nc,
+        ..DecimatedBlocks::default()
     };
-    let b = &mut out.blocks;
+    let b = &mut blocks;
     for piece in pieces {
-        if piece.channel_names != out.channel_names || piece.blocks.n_channels != nc {
+        if piece.channel_names != first.channel_names || piece.blocks.n_channels != nc {
             return Err(Error::Incompatible {
                 reason: "pieces of one log must have the same columns".into(),
             });
@@ -976,35 +942,8 @@ pub fn merge_runs(pieces: &[RunData], min_count: usize, rate_hz: f64) -> Result<
                 b.channels.extend_from_slice(row);
             }
         }
-        if piece.first_time_s.is_finite() {
-            if out.last_time_s.is_finite() {
-                let dt = piece.first_time_s - out.last_time_s;
-                out.max_interval_s = out.max_interval_s.max(dt);
-                if dt > 1.5 / rate_hz {
-                    out.n_gaps += 1;
-                }
-            } else {
-                out.first_time_s = piece.first_time_s;
-            }
-            out.last_time_s = piece.last_time_s;
-        }
-        out.max_interval_s = out.max_interval_s.max(piece.max_interval_s);
-        out.n_gaps += piece.n_gaps;
-        out.n_rows += piece.n_rows;
-        out.n_skipped_nonfinite += piece.n_skipped_nonfinite;
-        out.n_truncated_rows += piece.n_truncated_rows;
-        for (acc, r) in out.channel_ranges.iter_mut().zip(&piece.channel_ranges) {
-            if r.min < acc.min {
-                (acc.min, acc.n_at_min) = (r.min, r.n_at_min);
-            } else if r.min == acc.min {
-                acc.n_at_min += r.n_at_min;
-            }
-            if r.max > acc.max {
-                (acc.max, acc.n_at_max) = (r.max, r.n_at_max);
-            } else if r.max == acc.max {
-                acc.n_at_max += r.n_at_max;
-            }
-        }
+        tally.merge(&RunTally::resume(piece.raw_stats(), rate_hz)?)?;
+        n_truncated += piece.n_truncated_rows;
     }
     // Drop blocks under min_count, now that cut blocks are whole again.
     let keep: Vec<bool> = b.count.iter().map(|&c| c >= min_count as u64).collect();
@@ -1029,7 +968,13 @@ pub fn merge_runs(pieces: &[RunData], min_count: usize, rate_hz: f64) -> Result<
             what: "merge_runs: no block with enough valid samples",
         });
     }
-    Ok(out)
+    Ok(RunData::new(
+        first.header.clone(),
+        first.channel_names.clone(),
+        blocks,
+        tally.finish(),
+        n_truncated,
+    ))
 }
 
 #[cfg(test)]

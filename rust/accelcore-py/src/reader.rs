@@ -1,16 +1,146 @@
-//! `read_run`: the streaming session-log reader, and its result `RunData`.
+//! `read_run`: the streaming session-log reader, and its result `RunData`;
+//! `RunTally`: the statistics of a run's raw rows, for the other readers.
 
 use std::path::PathBuf;
 
 use accelcore_core::{
     merge_runs, plan_split, read_run, read_run_hashed, read_run_range, ChannelRange, CsvFormat,
-    DecimatorConfig, RunData,
+    DecimatorConfig, RawStats, RunData, RunTally,
 };
 use numpy::{IntoPyArray, PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 
 use crate::decimate::{blocks_to_py, PyDecimatedBlocks};
-use crate::gateway::{count, run_detached};
+use crate::gateway::{count, push_stream, run_detached};
+
+/// What a run's raw rows looked like (see `accelcore.core.RunTally` in the stubs).
+#[pyclass(name = "RunTally", module = "accelcore.core")]
+pub(crate) struct PyRunTally {
+    inner: RunTally,
+}
+
+/// The result of a `RunTally`.
+#[pyclass(name = "RawStats", module = "accelcore.core", frozen, get_all)]
+pub(crate) struct PyRawStats {
+    n_rows: u64,
+    n_skipped_nonfinite: u64,
+    first_time_s: f64,
+    last_time_s: f64,
+    n_gaps: u64,
+    max_interval_s: f64,
+    channel_min: Py<PyArray1<f64>>,
+    channel_max: Py<PyArray1<f64>>,
+    n_at_min: Py<PyArray1<u64>>,
+    n_at_max: Py<PyArray1<u64>>,
+}
+
+/// The four per-channel arrays of channel ranges: min, max, count at min, count at max.
+type RangeArrays = (
+    Py<PyArray1<f64>>,
+    Py<PyArray1<f64>>,
+    Py<PyArray1<u64>>,
+    Py<PyArray1<u64>>,
+);
+
+fn ranges_to_py(py: Python<'_>, ranges: &[ChannelRange]) -> RangeArrays {
+    let min: Vec<f64> = ranges.iter().map(|r| r.min).collect();
+    let max: Vec<f64> = ranges.iter().map(|r| r.max).collect();
+    let at_min: Vec<u64> = ranges.iter().map(|r| r.n_at_min).collect();
+    let at_max: Vec<u64> = ranges.iter().map(|r| r.n_at_max).collect();
+    (
+        min.into_pyarray(py).unbind(),
+        max.into_pyarray(py).unbind(),
+        at_min.into_pyarray(py).unbind(),
+        at_max.into_pyarray(py).unbind(),
+    )
+}
+
+fn raw_stats_to_py(py: Python<'_>, stats: RawStats) -> PyRawStats {
+    let (channel_min, channel_max, n_at_min, n_at_max) = ranges_to_py(py, &stats.channel_ranges);
+    PyRawStats {
+        n_rows: stats.n_rows,
+        n_skipped_nonfinite: stats.n_skipped_nonfinite,
+        first_time_s: stats.first_time_s,
+        last_time_s: stats.last_time_s,
+        n_gaps: stats.n_gaps,
+        max_interval_s: stats.max_interval_s,
+        channel_min,
+        channel_max,
+        n_at_min,
+        n_at_max,
+    }
+}
+
+#[pymethods]
+impl PyRawStats {
+    fn __repr__(&self) -> String {
+        format!(
+            "RawStats(n_rows={}, n_skipped_nonfinite={}, n_gaps={})",
+            self.n_rows, self.n_skipped_nonfinite, self.n_gaps
+        )
+    }
+}
+
+#[pymethods]
+impl PyRunTally {
+    #[new]
+    #[pyo3(signature = (*, n_channels = 3, rate_hz = 20.0))]
+    fn new(n_channels: i64, rate_hz: f64) -> PyResult<Self> {
+        let inner = RunTally::new(count("n_channels", n_channels)?, rate_hz)
+            .map_err(crate::errors::CoreError)?;
+        Ok(Self { inner })
+    }
+
+    /// Count a chunk of rows.
+    fn push(
+        &mut self,
+        py: Python<'_>,
+        time_s: &Bound<'_, PyAny>,
+        temperature_c: &Bound<'_, PyAny>,
+        channels: &Bound<'_, PyAny>,
+    ) -> PyResult<()> {
+        let inner = &mut self.inner;
+        push_stream(py, time_s, temperature_c, channels, |t, temp, ch| {
+            inner.push(t, temp, ch)
+        })
+    }
+
+    /// Add a tally whose rows follow this one's.
+    fn merge(&mut self, py: Python<'_>, other: PyRef<'_, PyRunTally>) -> PyResult<()> {
+        let other = other.inner.clone();
+        let inner = &mut self.inner;
+        run_detached(py, || inner.merge(&other))
+    }
+
+    /// The statistics of every row counted so far.
+    fn finish(&self, py: Python<'_>) -> PyRawStats {
+        raw_stats_to_py(py, self.inner.finish())
+    }
+
+    #[getter]
+    fn n_channels(&self) -> usize {
+        self.inner.n_channels()
+    }
+
+    #[getter]
+    fn rate_hz(&self) -> f64 {
+        self.inner.rate_hz()
+    }
+
+    #[getter]
+    fn n_rows(&self) -> u64 {
+        self.inner.stats().n_rows
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "RunTally(n_channels={}, rate_hz={}, n_rows={})",
+            self.inner.n_channels(),
+            self.inner.rate_hz(),
+            self.inner.stats().n_rows
+        )
+    }
+}
 
 /// One log file read and decimated.
 #[pyclass(name = "RunData", module = "accelcore.core", frozen, get_all)]
@@ -132,11 +262,7 @@ pub(crate) fn py_run_from_state(py: Python<'_>, state: RunState<'_>) -> PyResult
 }
 
 fn run_to_py(py: Python<'_>, run: RunData, sha256: Option<String>) -> PyResult<PyRunData> {
-    let ranges = &run.channel_ranges;
-    let channel_min: Vec<f64> = ranges.iter().map(|r| r.min).collect();
-    let channel_max: Vec<f64> = ranges.iter().map(|r| r.max).collect();
-    let n_at_min: Vec<u64> = ranges.iter().map(|r| r.n_at_min).collect();
-    let n_at_max: Vec<u64> = ranges.iter().map(|r| r.n_at_max).collect();
+    let (channel_min, channel_max, n_at_min, n_at_max) = ranges_to_py(py, &run.channel_ranges);
     Ok(PyRunData {
         blocks: Py::new(py, blocks_to_py(py, run.blocks)?)?,
         header: run.header,
@@ -148,10 +274,10 @@ fn run_to_py(py: Python<'_>, run: RunData, sha256: Option<String>) -> PyResult<P
         last_time_s: run.last_time_s,
         n_gaps: run.n_gaps,
         max_interval_s: run.max_interval_s,
-        channel_min: channel_min.into_pyarray(py).unbind(),
-        channel_max: channel_max.into_pyarray(py).unbind(),
-        n_at_min: n_at_min.into_pyarray(py).unbind(),
-        n_at_max: n_at_max.into_pyarray(py).unbind(),
+        channel_min,
+        channel_max,
+        n_at_min,
+        n_at_max,
         sha256,
     })
 }

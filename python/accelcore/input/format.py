@@ -1,0 +1,344 @@
+"""The session format: ``session.toml`` read and validated once, into a :class:`SessionFormat`.
+
+This module is the one owner of ``session.toml`` (format ``accelcore-session/1``,
+see ``docs/session-format.md``). :func:`accelcore.load_session` keeps what it
+read on :attr:`accelcore.Session.format`; every other room (the CLI, plots,
+bulk) takes the settings from there, or calls :meth:`SessionFormat.read`,
+instead of parsing the TOML again.
+
+May import: the foundation only (:mod:`accelcore.constants`, :mod:`accelcore.errors`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from accelcore.constants import (
+    DEFAULT_COLUMNS,
+    DELIMITERS,
+    ORIENTATIONS,
+    SESSION_FORMAT,
+    TIME_UNITS,
+    UNITS,
+)
+from accelcore.errors import AccelcoreIOError, SessionFormatError
+
+__all__ = ["TOML_NAME", "RunSpec", "SessionFormat", "check_units", "gravity_of"]
+
+#: Name of the settings file of a session folder.
+TOML_NAME = "session.toml"
+
+
+def gravity_of(orientation: str) -> NDArray[np.float64]:
+    """Return the gravity vector in g that an orientation label implies.
+
+    Parameters
+    ----------
+    orientation : str
+        One of ``OX+ OX- OY+ OY- OZ+ OZ-`` (case-insensitive).
+
+    Returns
+    -------
+    ndarray of float64, shape (3,)
+        Gravity on x, y, z in g.
+
+    Raises
+    ------
+    accelcore.SessionFormatError
+        An unknown label.
+    """
+    key = orientation.strip().upper()
+    if key not in ORIENTATIONS:
+        raise SessionFormatError(
+            f"unknown orientation {orientation!r}; expected one of {', '.join(ORIENTATIONS)}"
+        )
+    return np.array(ORIENTATIONS[key], dtype=np.float64)
+
+
+def check_units(units: object, where: str) -> str:
+    """Return ``units`` if it is one of :data:`accelcore.constants.UNITS`.
+
+    Parameters
+    ----------
+    units : object
+        The value given.
+    where : str
+        What the message names (a file, or an argument).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    accelcore.SessionFormatError
+        Any other value.
+    """
+    if not isinstance(units, str) or units not in UNITS:
+        raise SessionFormatError(f"{where}: units must be one of {', '.join(UNITS)}, got {units!r}")
+    return str(units)
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One ``[[run]]`` table of ``session.toml``.
+
+    Attributes
+    ----------
+    file : str
+        The log file as written in ``session.toml`` (relative to the folder).
+    path : pathlib.Path
+        The log file: the session folder joined with ``file``.
+    orientation : str
+        ``OX+`` ... ``OZ-`` (upper case, stripped).
+    """
+
+    file: str
+    path: Path
+    orientation: str
+
+    @property
+    def gravity_g(self) -> NDArray[np.float64]:
+        """Gravity on x, y, z in g that the orientation implies."""
+        return gravity_of(self.orientation)
+
+
+@dataclass(frozen=True)
+class SessionFormat:
+    """Everything ``session.toml`` says, validated.
+
+    Attributes
+    ----------
+    folder : pathlib.Path
+        The session folder.
+    version : str
+        The ``format`` key (always :data:`accelcore.constants.SESSION_FORMAT`).
+    units : str
+        ``V``, ``LSB``, ``g`` or ``m/s2``.
+    rate_hz : float
+        Nominal sample rate of the logs.
+    sensor, serial : str or None
+        Datasheet name and the part's serial, when given (empty means None).
+    delimiter : str
+        The ``delimiter`` key as written (a comma, a semicolon, a tab or ``tab``);
+        :attr:`separator` is the character it stands for.
+    time_unit : str
+        Unit of the time column: ``s``, ``ms``, ``us`` or ``ns``.
+    columns : mapping of str to str
+        Log column of each role (``time``, ``temperature``, ``x``, ``y``, ``z``),
+        defaults filled in. Every other column of a log is an extra observable.
+    runs : tuple of RunSpec
+        The ``[[run]]`` tables, in order.
+    sha256 : str
+        SHA-256 of the bytes of ``session.toml`` that were parsed.
+    """
+
+    folder: Path
+    version: str
+    units: str
+    rate_hz: float
+    sensor: str | None
+    serial: str | None
+    delimiter: str
+    time_unit: str
+    columns: Mapping[str, str]
+    runs: tuple[RunSpec, ...]
+    sha256: str
+
+    @property
+    def toml_path(self) -> Path:
+        """The ``session.toml`` file."""
+        return self.folder / TOML_NAME
+
+    @property
+    def separator(self) -> str:
+        """The field separator character the ``delimiter`` key stands for."""
+        return DELIMITERS[self.delimiter]
+
+    @property
+    def time_scale_to_s(self) -> float:
+        """Seconds per unit of the time column."""
+        return TIME_UNITS[self.time_unit]
+
+    @property
+    def channel_columns(self) -> tuple[str, str, str]:
+        """Log columns of x, y and z."""
+        return (self.columns["x"], self.columns["y"], self.columns["z"])
+
+    @property
+    def run_files(self) -> tuple[Path, ...]:
+        """Every run's log file, in order."""
+        return tuple(r.path for r in self.runs)
+
+    @classmethod
+    def read(cls, path: str | Path, *, check_files: bool = True) -> SessionFormat:
+        """Read and validate a session folder's ``session.toml``.
+
+        Parameters
+        ----------
+        path : str or Path
+            The session folder (holding ``session.toml``).
+        check_files : bool, default True
+            Also require every run file to exist.
+
+        Returns
+        -------
+        SessionFormat
+
+        Raises
+        ------
+        accelcore.SessionFormatError
+            ``session.toml`` is missing, not TOML, of another format version, or
+            has a missing or invalid key; the message names the file and the key.
+        accelcore.AccelcoreIOError
+            The folder, or (with ``check_files``) a run file, does not exist.
+        """
+        folder = Path(path)
+        toml_path = folder / TOML_NAME
+        if not folder.exists():
+            raise AccelcoreIOError(f"{folder}: no such session folder")
+        if not toml_path.is_file():
+            raise SessionFormatError(
+                f"{toml_path}: missing (a session folder holds a session.toml)"
+            )
+        data = toml_path.read_bytes()
+        try:
+            meta = tomllib.loads(data.decode("utf-8"))
+        except tomllib.TOMLDecodeError as exc:
+            raise SessionFormatError(f"{toml_path}: not valid TOML: {exc}") from exc
+        except UnicodeDecodeError as exc:
+            raise SessionFormatError(f"{toml_path}: not UTF-8 text: {exc}") from exc
+        return cls.from_mapping(
+            meta,
+            folder,
+            sha256=hashlib.sha256(data).hexdigest(),
+            check_files=check_files,
+        )
+
+    @classmethod
+    def from_mapping(
+        cls,
+        meta: Mapping[str, Any],
+        folder: str | Path,
+        *,
+        sha256: str = "",
+        check_files: bool = True,
+    ) -> SessionFormat:
+        """Validate the parsed content of a ``session.toml``.
+
+        Parameters
+        ----------
+        meta : mapping
+            The TOML document, as :func:`tomllib.loads` returns it.
+        folder : str or Path
+            The session folder (run files are relative to it; messages name its
+            ``session.toml``).
+        sha256 : str, optional
+            SHA-256 of the file's bytes, kept on the result.
+        check_files : bool, default True
+            Also require every run file to exist.
+
+        Returns
+        -------
+        SessionFormat
+
+        Raises
+        ------
+        accelcore.SessionFormatError, accelcore.AccelcoreIOError
+            As :meth:`read`.
+        """
+        folder = Path(folder)
+        where = str(folder / TOML_NAME)
+        fmt = meta.get("format")
+        if fmt is None:
+            raise SessionFormatError(
+                f"{where}: missing required key 'format' (= \"{SESSION_FORMAT}\")"
+            )
+        if fmt != SESSION_FORMAT:
+            raise SessionFormatError(
+                f"{where}: format {fmt!r} is not supported; expected {SESSION_FORMAT!r}"
+            )
+        for key in ("units", "rate_hz"):
+            if key not in meta:
+                raise SessionFormatError(f"{where}: missing required key '{key}'")
+        units = check_units(meta["units"], where)
+        rate_hz = meta["rate_hz"]
+        if not isinstance(rate_hz, (int, float)) or not math.isfinite(rate_hz) or rate_hz <= 0:
+            raise SessionFormatError(f"{where}: rate_hz must be a positive number, got {rate_hz!r}")
+        delimiter = meta.get("delimiter", ",")
+        if not isinstance(delimiter, str) or delimiter not in DELIMITERS:
+            raise SessionFormatError(
+                f"{where}: delimiter must be ',', '\\t' or ';', got {delimiter!r}"
+            )
+        time_unit = meta.get("time_unit", "s")
+        if not isinstance(time_unit, str) or time_unit not in TIME_UNITS:
+            raise SessionFormatError(
+                f"{where}: time_unit must be one of {', '.join(TIME_UNITS)}, got {time_unit!r}"
+            )
+        columns = _columns(meta.get("columns", {}), where)
+        runs = _runs(meta.get("run"), folder, where, check_files=check_files)
+        sensor = meta.get("sensor") or None
+        serial = meta.get("serial") or None
+        return cls(
+            folder=folder,
+            version=str(fmt),
+            units=units,
+            rate_hz=float(rate_hz),
+            sensor=str(sensor) if sensor else None,
+            serial=str(serial) if serial else None,
+            delimiter=delimiter,
+            time_unit=time_unit,
+            columns=MappingProxyType(columns),
+            runs=runs,
+            sha256=sha256,
+        )
+
+
+def _columns(given: object, where: str) -> dict[str, str]:
+    """Check the ``[columns]`` table and fill in the defaults."""
+    if not isinstance(given, dict):
+        raise SessionFormatError(f"{where}: [columns] must be a table of column names")
+    bad = [k for k, v in given.items() if not isinstance(v, str)]
+    if bad:
+        raise SessionFormatError(
+            f"{where}: [columns] values must be strings (column names): {', '.join(bad)}"
+        )
+    columns = {**DEFAULT_COLUMNS, **given}
+    unknown = set(columns) - set(DEFAULT_COLUMNS)
+    if unknown:
+        raise SessionFormatError(
+            f"{where}: unknown key(s) in [columns]: {', '.join(sorted(unknown))}"
+        )
+    return columns
+
+
+def _runs(tables: object, folder: Path, where: str, *, check_files: bool) -> tuple[RunSpec, ...]:
+    """Check the ``[[run]]`` tables, in order."""
+    if not isinstance(tables, list) or not tables:
+        raise SessionFormatError(f"{where}: no [[run]] table; a session needs at least one run")
+    specs = []
+    for i, table in enumerate(tables, start=1):
+        if not isinstance(table, dict):
+            raise SessionFormatError(f"{where}: [[run]] #{i} must be a table")
+        for key in ("file", "orientation"):
+            if key not in table:
+                raise SessionFormatError(f"{where}: [[run]] #{i} is missing required key '{key}'")
+        try:
+            gravity_of(str(table["orientation"]))
+        except SessionFormatError as exc:
+            raise SessionFormatError(f"{where}: [[run]] #{i}: {exc}") from None
+        file = folder / str(table["file"])
+        if check_files and not file.is_file():
+            raise AccelcoreIOError(f"{file}: run file does not exist ({where}, [[run]] #{i})")
+        specs.append(RunSpec(str(table["file"]), file, str(table["orientation"]).strip().upper()))
+    return tuple(specs)

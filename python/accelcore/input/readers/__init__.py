@@ -1,0 +1,29 @@
+"""Readers for logs that are not session folders, mapped onto the same :class:`Session`.
+
+- :func:`read_orientation_log`: one delimited log with an orientation column, the
+  positioner rotating during the run; every contiguous stretch of one label is a run.
+- :func:`read_parquet`: a Parquet file (``pip install accelcore[parquet]``), one
+  orientation for the whole file or an orientation column.
+- :func:`read_tdms`: an NI TDMS file as LabVIEW writes it (``pip install
+  accelcore[tdms]``), one run per group.
+
+Every reader streams the file in chunks of at most ``common.CHUNK_ROWS`` rows into the
+Rust :class:`accelcore.core.Decimator` (block means, ``decimation_factor`` raw
+samples per block, the block grid starting at each run's first kept sample),
+exactly as :func:`accelcore.load_session` does; only the decimated blocks are
+kept. See ``docs/readers.md`` for the layouts each reader expects.
+
+Rooms: :mod:`.common` (chunk size, checks, errors), :mod:`.segment` (chunks of
+rows to runs), one module per kind of file. May import: the foundation and the
+rest of the input room (:mod:`accelcore.input.format`, :mod:`accelcore.input.session`).
+"""
+
+from __future__ import annotations
+
+from accelcore.input.readers import common
+from accelcore.input.readers.common import CHUNK_ROWS
+from accelcore.input.readers.orientation_log import read_orientation_log
+from accelcore.input.readers.parquet import read_parquet
+from accelcore.input.readers.tdms import read_tdms
+
+__all__ = ["CHUNK_ROWS", "common", "read_orientation_log", "read_parquet", "read_tdms"]

@@ -1,0 +1,111 @@
+"""What every reader shares: chunk size, argument checks and errors laid out as the Rust reader's.
+
+May import: the foundation and :mod:`accelcore.input.format`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from accelcore.constants import DEFAULT_COLUMNS, ORIENTATIONS, TIME_UNITS
+from accelcore.errors import AccelcoreIOError, ParameterError, ParseError
+
+__all__ = ["CHUNK_ROWS"]
+
+#: Rows read per chunk: bounds the memory of every reader, whatever the file size.
+CHUNK_ROWS = 65_536
+
+_ROLES = ("time", "temperature", "x", "y", "z")
+_LABELS = tuple(ORIENTATIONS)  # index -> label; -1 means "no label"
+_FloatArray = NDArray[np.float64]
+
+
+def _parse_error(
+    path: str, line: int, column: int, reason: str, where: str | None = ""
+) -> ParseError:
+    """Build a ParseError laid out as the Rust reader's (``path:line:column: reason``).
+
+    ``where`` replaces ``line:column`` in the message; None leaves it out.
+    """
+    location = "" if where is None else f":{where or f'{line}:{column}'}"
+    err = ParseError(f"{path}{location}: {reason}")
+    err.path, err.line, err.column = path, line, column
+    return err
+
+
+def _io_error(path: str, reason: str) -> AccelcoreIOError:
+    err = AccelcoreIOError(f"{path}: {reason}")
+    err.path = path
+    return err
+
+
+def _check_file(path: str | os.PathLike[str]) -> str:
+    p = Path(path)
+    if not p.exists():
+        raise _io_error(str(p), "no such file")
+    if not p.is_file():
+        raise _io_error(str(p), "not a file")
+    return str(p)
+
+
+def _column_names(columns: Mapping[str, str] | None) -> dict[str, str]:
+    names = {**DEFAULT_COLUMNS, **(columns or {})}
+    unknown = set(names) - set(DEFAULT_COLUMNS)
+    if unknown:
+        raise ParameterError(
+            f"columns: unknown role(s) {', '.join(sorted(unknown))}; "
+            f"expected some of {', '.join(_ROLES)}"
+        )
+    return names
+
+
+def _check_rate(rate_hz: float, where: str = "rate_hz") -> float:
+    if not isinstance(rate_hz, (int, float)) or not math.isfinite(rate_hz) or rate_hz <= 0:
+        raise ParameterError(f"{where} must be a positive number, got {rate_hz!r}")
+    return float(rate_hz)
+
+
+def _check_settle(settle_s: float) -> float:
+    if not isinstance(settle_s, (int, float)) or not math.isfinite(settle_s) or settle_s < 0:
+        raise ParameterError(f"settle_s must be a finite number >= 0, got {settle_s!r}")
+    return float(settle_s)
+
+
+def _time_scale(time_unit: str) -> float:
+    if time_unit not in TIME_UNITS:
+        raise ParameterError(f"time_unit must be one of {', '.join(TIME_UNITS)}, got {time_unit!r}")
+    return TIME_UNITS[time_unit]
+
+
+def _missing_columns(
+    path: str, found: Sequence[str], wanted: Sequence[str], *, header_line: bool
+) -> ParseError:
+    """Missing columns, located on the header line of a text log (else just the file)."""
+    missing = [w for w in wanted if w not in found]
+    return _parse_error(
+        path,
+        1,
+        1,
+        f"missing column(s) {', '.join(repr(m) for m in missing)}; "
+        f"found {', '.join(repr(str(f)) for f in found)}",
+        where="" if header_line else None,
+    )
+
+
+def _timestamp_seconds(data: NDArray[Any], origin: list[Any]) -> _FloatArray:
+    """Seconds of datetime64 values from the first one seen (kept in ``origin``); NaT: NaN."""
+    stamps = data.astype("datetime64[ns]")
+    valid = ~np.isnat(stamps)
+    if not origin and valid.any():
+        origin.append(stamps[int(np.argmax(valid))])
+    seconds = np.full(stamps.shape, np.nan)
+    if origin:
+        seconds[valid] = (stamps[valid] - origin[0]).astype(np.int64).astype(np.float64) * 1e-9
+    return seconds
