@@ -41,8 +41,9 @@ class Compensator:
 
     Made by :meth:`Calibration.compensator` from the calibration's coefficients:
     ``offset`` (3, k) and ``gain`` (9, k, row ``3·axis + source``) over ``bases`` (k).
-    Time is measured from the first chunk's first sample; lag filters continue from the previous chunk's last
-    sample, so the result does not depend on the chunking.
+    Time is measured from the first chunk's first sample; lag filters continue
+    from the previous chunk's last sample, so the result does not depend on the
+    chunking.
 
     Attributes
     ----------
