@@ -33,7 +33,6 @@ import math
 import os
 import sys
 import time
-import tomllib
 import traceback
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor, as_completed
@@ -51,6 +50,7 @@ from accelcore.errors import AccelcoreError
 from accelcore.files import atomic_write
 from accelcore.fitting.calibrate import calibrate
 from accelcore.input.cache import CacheSetting
+from accelcore.input.format import SessionFormat
 from accelcore.input.session import load_session
 from accelcore.outputs.report.fleet import FAILURE_COLUMNS, FLEET_COLUMNS
 from accelcore.result.calibration import Calibration
@@ -84,13 +84,12 @@ def _input_mtime(session_dir: Path) -> float:
     """Newest modification time of session.toml and every file it names."""
     newest = (session_dir / "session.toml").stat().st_mtime
     try:
-        meta = tomllib.loads((session_dir / "session.toml").read_text())
-        for run in meta.get("run", []):
-            f = session_dir / str(run.get("file", ""))
-            if f.is_file():
-                newest = max(newest, f.stat().st_mtime)
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError, OSError):
-        pass
+        files = SessionFormat.read(session_dir, check_files=False).run_files
+    except (AccelcoreError, OSError):
+        return newest  # the session fails at load and is reported there
+    for f in files:
+        if f.is_file():
+            newest = max(newest, f.stat().st_mtime)
     return newest
 
 

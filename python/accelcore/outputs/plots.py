@@ -18,17 +18,15 @@ one, no rate of change, no drift and extra observables at their reference.
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
+import pandas as pd
 from numpy.typing import NDArray
 
 from accelcore import core
 from accelcore.constants import AXES
-from accelcore.constants import DELIMITERS as _DELIMITERS
 from accelcore.input.session import Run, Session
 from accelcore.model import Constant
 from accelcore.result.calibration import AxisModel, Calibration
@@ -95,16 +93,11 @@ def _pick_run(session: Session, run: int | str | None) -> Run:
 
 def _read_raw(session: Session, run: Run, axis: str) -> tuple[NDArray[np.float64], ...] | None:
     """Re-read temperature and one axis of a run's raw log; None for in-memory runs."""
-    if run.source is None or session.path is None:
+    fmt = session.format
+    if run.source is None or fmt is None:
         return None
-    import pandas as pd
-
-    with open(Path(session.path) / "session.toml", "rb") as fh:
-        meta = tomllib.load(fh)
-    columns = {"temperature": "temp_c", "x": "x", "y": "y", "z": "z", **meta.get("columns", {})}
-    sep = _DELIMITERS.get(meta.get("delimiter", ","), ",")
-    names = [columns["temperature"], columns[axis]]
-    frame = pd.read_csv(run.source, sep=sep, usecols=names)
+    names = [fmt.columns["temperature"], fmt.columns[axis]]
+    frame = pd.read_csv(run.source, sep=fmt.separator, usecols=names)
     frame = frame.apply(pd.to_numeric, errors="coerce")
     return (
         frame[names[0]].to_numpy(dtype=np.float64),

@@ -13,7 +13,6 @@ import argparse
 import dataclasses
 import importlib
 import sys
-import tomllib
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
@@ -33,6 +32,7 @@ from accelcore.constants import DELIMITERS as _DELIMITERS
 from accelcore.constants import TIME_UNITS as _TIME_UNITS
 from accelcore.errors import AccelcoreError, TemperatureRangeWarning
 from accelcore.files import atomic_open
+from accelcore.input.format import SessionFormat
 from accelcore.input.quality import check_session
 from accelcore.input.session import Session
 from accelcore.outputs.report import fleet_report, is_bulk_output, session_report
@@ -99,17 +99,8 @@ def cmd_calibrate(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _session_format(folder: str) -> dict[str, Any]:
-    path = Path(folder) / "session.toml"
-    try:
-        with open(path, "rb") as fh:
-            meta = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise CliDataError(f"{path}: not valid TOML: {exc}") from exc
-    return {
-        "delimiter": meta.get("delimiter", ","),
-        "time_unit": meta.get("time_unit", "s"),
-        "columns": dict(meta.get("columns", {})),
-    }
+    fmt = SessionFormat.read(folder, check_files=False)
+    return {"delimiter": fmt.delimiter, "time_unit": fmt.time_unit, "columns": dict(fmt.columns)}
 
 
 def _parse_column_options(items: Sequence[str]) -> dict[str, str]:
