@@ -13,8 +13,6 @@ from benches.data import FloatArray, log
 
 BINS: dict[str, Any] = {"lo_c": -40.0, "hi_c": 85.0, "width_c": 0.5}
 T_REF_C = 25.0
-FUSED_RATE_TARGET = 100e6
-FUSED_RATIO_TARGET = 10.0
 
 
 def _decimate(mod: Any, t: FloatArray, temp: FloatArray, ch: FloatArray) -> object:
@@ -35,30 +33,6 @@ def _lstsq(mod: Any, design: FloatArray, y: FloatArray) -> object:
     return ls.finish()
 
 
-def reference_fused(t: FloatArray, temp: FloatArray, ch: FloatArray) -> object:
-    """The composition FusedPipeline fuses, written with the reference kernels."""
-    d = reference.Decimator()
-    d.push(t, temp, ch)
-    blocks = d.finish()
-    b = reference.TemperatureBinner(**BINS)
-    b.push(blocks.time_s, blocks.temperature_c, blocks.channels)
-    design = np.column_stack([np.ones(len(blocks.count)), blocks.temperature_c - T_REF_C])
-    weights = blocks.count.astype(np.float64)
-    fits = []
-    for j in range(blocks.channels.shape[1]):
-        ls = reference.LeastSquares(2)
-        ls.push(design, blocks.channels[:, j], weights)
-        fits.append(ls.finish())
-    return b.finish(), fits
-
-
-def accelcore_fused(t: FloatArray, temp: FloatArray, ch: FloatArray) -> object:
-    """FusedPipeline over the whole arrays (it works through them in 8192-row sub-chunks)."""
-    p = core.FusedPipeline(t_ref_c=T_REF_C, **BINS)
-    p.push(t, temp, ch)
-    return p.finish()
-
-
 def _one_size(table: Table, n: int, repeat: int, ref_repeat: int) -> None:
     t, temp, ch = log(n)
     design = np.column_stack([np.ones(n), temp - T_REF_C])
@@ -71,20 +45,12 @@ def _one_size(table: Table, n: int, repeat: int, ref_repeat: int) -> None:
         ),
         ("bin", lambda: _bin(core, t, temp, ch), lambda: _bin(reference, t, temp, ch)),
         ("lstsq (p=2)", lambda: _lstsq(core, design, y), lambda: _lstsq(reference, design, y)),
-        ("fused", lambda: accelcore_fused(t, temp, ch), lambda: reference_fused(t, temp, ch)),
     ]
     for kernel, fast, slow in cases:
-        rows = [
+        table.rows += [
             measure(f"{kernel}: accelcore", fast, n=n, repeat=repeat),
             measure(f"{kernel}: reference", slow, n=n, repeat=ref_repeat),
         ]
-        if kernel == "fused":
-            fused = rows[0]
-            fused.target = ">=10x, >=100M samp/s"
-            ratio = rows[1].wall_s / fused.wall_s
-            ok_ratio, ok_rate = ratio >= FUSED_RATIO_TARGET, fused.rate >= FUSED_RATE_TARGET
-            fused.met = {2: "yes", 1: "partly", 0: "no"}[ok_ratio + ok_rate]
-        table.rows += rows
 
 
 def run(ctx: Context) -> list[Table]:

@@ -10,7 +10,6 @@ result of one pass over ``a``'s input followed by ``b``'s.
 - :class:`LeastSquares`: incremental weighted least squares (Givens QR).
 - :class:`BlockedLeastSquares`: one such factor per block of samples; the held-out
   error of any fold assignment by merging factors (the diagnosis' engine).
-- :class:`FusedPipeline`: the three fused, decimate → bin → line fit, in one pass.
 - :func:`running_median`: a centred running median (the data-quality checks' smoother).
 
 All computation runs in Rust with the GIL released. ``accelcore.reference``
@@ -24,11 +23,9 @@ from accelcore._accelcore import (
     BlockedLeastSquares,
     DecimatedBlocks,
     Decimator,
-    FusedPipeline,
     HeldOutFit,
     LeastSquares,
     LstsqSolution,
-    PipelineResult,
     TemperatureBinner,
     running_median,
 )
@@ -38,11 +35,9 @@ __all__ = [
     "BlockedLeastSquares",
     "DecimatedBlocks",
     "Decimator",
-    "FusedPipeline",
     "HeldOutFit",
     "LeastSquares",
     "LstsqSolution",
-    "PipelineResult",
     "TemperatureBinner",
     "running_median",
 ]

@@ -158,9 +158,9 @@ def warm_up(fn: Callable[[], object], seconds: float = WARMUP_S) -> int:
     Every row, baselines included, is warmed the same way (criterion warms up
     for 3 s, pytest-benchmark and asv have a warm-up too). On the 2-vCPU VM of
     ``benches/results`` a kernel called right after another workload runs up to
-    25 % slower for its first ~50 ms (the fused pipeline at 1e6 samples:
-    7.9 ms on the first call after the NumPy reference, 6.2-6.5 ms from about
-    the tenth); the timed repetitions measure the settled rate.
+    25 % slower for its first ~50 ms (a fused decimate-bin-fit kernel, since
+    removed, at 1e6 samples: 7.9 ms on the first call after the NumPy reference,
+    6.2-6.5 ms from about the tenth); the timed repetitions measure the settled rate.
     """
     start = time.perf_counter()
     calls = 0
@@ -374,7 +374,7 @@ def build_parser(
             help="the folder of benchmark cases, named benches and holding cases.py "
             "(default: ./benches)",
         )
-    p.add_argument("--large", action="store_true", help="add 1e8-sample kernels, 1e9 memory run")
+    p.add_argument("--large", action="store_true", help="add 1e8-sample kernels, 1000 h memory log")
     p.add_argument("--quick", action="store_true", help="small sizes, one repetition (smoke)")
     p.add_argument(
         "--cases",

@@ -36,7 +36,7 @@ use crate::error::{Error, Result};
 use ndarray::ArrayView2;
 
 /// Channel counts up to this go through the run-wise fast path of `push`.
-pub(crate) const RUN_CHANNELS: usize = 8;
+const RUN_CHANNELS: usize = 8;
 
 /// Largest number of bins a configuration may produce.
 pub const MAX_BINS: usize = 10_000_000;
@@ -233,7 +233,7 @@ impl TemperatureBinner {
             }
         } else if let Some(flat) = channels.as_slice() {
             if nc <= RUN_CHANNELS {
-                self.push_contiguous::<true>(time_s, temperature_c, flat);
+                self.push_contiguous(time_s, temperature_c, flat);
             } else {
                 for ((&t, &temp), row) in
                     time_s.iter().zip(temperature_c).zip(flat.chunks_exact(nc))
@@ -253,49 +253,27 @@ impl TemperatureBinner {
         Ok(())
     }
 
-    /// [`TemperatureBinner::push`] for rows known to be finite (every time,
-    /// temperature and channel value: the caller has checked), contiguous,
-    /// of at most [`RUN_CHANNELS`] channels: the same result, bit for bit,
-    /// without testing each value again.
-    pub(crate) fn push_finite(&mut self, time_s: &[f64], temperature_c: &[f64], flat: &[f64]) {
-        let nc = self.config.n_channels;
-        debug_assert!(nc <= RUN_CHANNELS);
-        debug_assert_eq!(flat.len(), time_s.len() * nc);
-        debug_assert!(time_s
-            .iter()
-            .chain(temperature_c)
-            .chain(flat)
-            .all(|v| v.is_finite()));
-        self.push_contiguous::<false>(time_s, temperature_c, flat);
-    }
-
     /// Contiguous rows of 1..=[`RUN_CHANNELS`] channels: [`TemperatureBinner::push_runs`]
-    /// compiled for the channel count. `CHECK`: test every value for finiteness.
-    fn push_contiguous<const CHECK: bool>(
-        &mut self,
-        time_s: &[f64],
-        temperature_c: &[f64],
-        flat: &[f64],
-    ) {
+    /// compiled for the channel count.
+    fn push_contiguous(&mut self, time_s: &[f64], temperature_c: &[f64], flat: &[f64]) {
         let (t, temp) = (time_s, temperature_c);
         match self.config.n_channels {
-            1 => self.push_runs::<1, CHECK>(t, temp, flat),
-            2 => self.push_runs::<2, CHECK>(t, temp, flat),
-            3 => self.push_runs::<3, CHECK>(t, temp, flat),
-            4 => self.push_runs::<4, CHECK>(t, temp, flat),
-            _ => self.push_runs::<0, CHECK>(t, temp, flat),
+            1 => self.push_runs::<1>(t, temp, flat),
+            2 => self.push_runs::<2>(t, temp, flat),
+            3 => self.push_runs::<3>(t, temp, flat),
+            4 => self.push_runs::<4>(t, temp, flat),
+            _ => self.push_runs::<0>(t, temp, flat),
         }
     }
 
-    /// The bin of a row that enters one: finite values (tested only if
-    /// `CHECK`), temperature in the window.
+    /// The bin of a row that enters one: finite values, temperature in the window.
     // `&` not `&&`: branch-free (the common case passes every test).
     #[allow(clippy::needless_bitwise_bool)]
     #[inline]
-    fn bin_of<const CHECK: bool>(&self, t: f64, temp: f64, row: &[f64]) -> Option<usize> {
+    fn bin_of(&self, t: f64, temp: f64, row: &[f64]) -> Option<usize> {
         let c = &self.config;
-        let finite = !CHECK
-            || t.is_finite() & temp.is_finite() & row.iter().fold(true, |ok, v| ok & v.is_finite());
+        let finite =
+            t.is_finite() & temp.is_finite() & row.iter().fold(true, |ok, v| ok & v.is_finite());
         let ok = finite & (temp >= c.lo_c) & (temp < c.hi_c);
         // `temp >= lo_c`, so the quotient is >= 0 and truncation is the floor.
         ok.then(|| (((temp - c.lo_c) / c.width_c) as usize).min(self.n_bins - 1))
@@ -308,13 +286,8 @@ impl TemperatureBinner {
     /// same order as `add`, so the result is bit-identical.
     ///
     /// `N` is the channel count fixed at compile time (0: from the
-    /// configuration); `CHECK` as in [`TemperatureBinner::bin_of`].
-    fn push_runs<const N: usize, const CHECK: bool>(
-        &mut self,
-        time_s: &[f64],
-        temperature_c: &[f64],
-        flat: &[f64],
-    ) {
+    /// configuration).
+    fn push_runs<const N: usize>(&mut self, time_s: &[f64], temperature_c: &[f64], flat: &[f64]) {
         let nc = if N == 0 { self.config.n_channels } else { N };
         let stride = stride(nc);
         let n = time_s.len();
@@ -322,7 +295,7 @@ impl TemperatureBinner {
         let mut i = 0;
         while i < n {
             let (t, temp, row) = (time_s[i], temperature_c[i], row_at(i));
-            let Some(bin) = self.bin_of::<CHECK>(t, temp, row) else {
+            let Some(bin) = self.bin_of(t, temp, row) else {
                 self.add(t, temp, row);
                 i += 1;
                 continue;
@@ -363,9 +336,7 @@ impl TemperatureBinner {
                     *q += delta * (y - *m);
                 }
                 j += 1;
-                if j == n
-                    || self.bin_of::<CHECK>(time_s[j], temperature_c[j], row_at(j)) != Some(bin)
-                {
+                if j == n || self.bin_of(time_s[j], temperature_c[j], row_at(j)) != Some(bin) {
                     break;
                 }
             }
@@ -541,56 +512,6 @@ impl TemperatureBinner {
 mod tests {
     use super::*;
     use ndarray::Array2;
-
-    /// `push_finite` skips the finiteness tests only: on finite rows (some out
-    /// of the window, runs in one bin and changes of bin) it gives `push`'s
-    /// result bit for bit, for every channel count it is compiled for.
-    #[test]
-    fn push_finite_equals_push() {
-        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut rnd = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for nc in 1..=RUN_CHANNELS {
-            let n = 3000;
-            // A slow ramp with noise over -5..45 degC, window 0..40: runs, edges, outliers.
-            let temp: Vec<f64> = (0..n)
-                .map(|i| -5.0 + 50.0 * i as f64 / n as f64 + 0.8 * (rnd() - 0.5))
-                .collect();
-            let time: Vec<f64> = (0..n).map(|i| 1e4 + 0.5 * i as f64).collect();
-            let ch: Vec<f64> = (0..n * nc).map(|_| 16_000.0 + rnd()).collect();
-            let cfg = BinnerConfig {
-                lo_c: 0.0,
-                hi_c: 40.0,
-                width_c: 0.5,
-                n_channels: nc,
-            };
-            let mut checked = TemperatureBinner::new(cfg.clone()).unwrap();
-            let view = ndarray::ArrayView2::from_shape((n, nc), &ch[..]).unwrap();
-            checked.push(&time, &temp, view).unwrap();
-            let mut fast = TemperatureBinner::new(cfg).unwrap();
-            for (lo, hi) in [(0, 1), (1, 1700), (1700, n)] {
-                fast.push_finite(&time[lo..hi], &temp[lo..hi], &ch[lo * nc..hi * nc]);
-            }
-            let (a, b) = (checked.finish().unwrap(), fast.finish().unwrap());
-            assert_eq!(a.count, b.count, "nc = {nc}");
-            assert!(
-                a.n_below > 0 && a.n_above > 0 && (a.n_below, a.n_above) == (b.n_below, b.n_above)
-            );
-            for (x, y) in [
-                (&a.time_s, &b.time_s),
-                (&a.temperature_c, &b.temperature_c),
-                (&a.mean, &b.mean),
-                (&a.variance, &b.variance),
-            ] {
-                assert_eq!(bits(x), bits(y), "nc = {nc}");
-            }
-        }
-    }
 
     #[test]
     fn config_validation() {

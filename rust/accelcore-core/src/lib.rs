@@ -23,7 +23,6 @@ pub mod decimate;
 pub mod error;
 pub mod features;
 pub mod heldout;
-pub mod pipeline;
 pub mod reader;
 pub mod regression;
 pub mod robust;
@@ -35,7 +34,6 @@ pub use decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 pub use error::{Error, Result};
 pub use features::first_order_lag;
 pub use heldout::{BlockedLeastSquares, HeldOutFit};
-pub use pipeline::{FusedPipeline, PipelineConfig, PipelineResult};
 pub use reader::{
     merge_runs, plan_split, read_run, read_run_from, read_run_hashed, read_run_range, CsvFormat,
     RunData, SplitPlan,

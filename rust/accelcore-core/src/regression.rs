@@ -359,51 +359,6 @@ impl LeastSquares {
         Ok(())
     }
 
-    /// Push rows of the line design `[1, x_i - x_ref]`, weighted by `counts`,
-    /// with `n_responses` right-hand sides (`responses` row-major, `n x m`).
-    ///
-    /// The same arithmetic as [`LeastSquares::push_multi`] on the design
-    /// `[1, x - x_ref]` and the weights `counts as f64` (bit for bit), without
-    /// building them. The caller guarantees that there are 2 columns, that the
-    /// lengths agree, and that every `x_i - x_ref` and every response is
-    /// finite (the fused pipeline checks this and takes `push_multi`'s error
-    /// path otherwise).
-    pub(crate) fn push_line_unchecked(
-        &mut self,
-        x: &[f64],
-        x_ref: f64,
-        counts: &[u64],
-        responses: &[f64],
-    ) {
-        debug_assert_eq!(self.n_columns, 2);
-        debug_assert_eq!(responses.len(), x.len() * self.n_responses);
-        match self.n_responses {
-            1 => self.push_line_sized::<1>(x, x_ref, counts, responses),
-            2 => self.push_line_sized::<2>(x, x_ref, counts, responses),
-            3 => self.push_line_sized::<3>(x, x_ref, counts, responses),
-            _ => self.push_line_sized::<0>(x, x_ref, counts, responses),
-        }
-    }
-
-    /// [`LeastSquares::push_line_unchecked`] for `M` responses (0: any).
-    fn push_line_sized<const M: usize>(
-        &mut self,
-        x: &[f64],
-        x_ref: f64,
-        counts: &[u64],
-        responses: &[f64],
-    ) {
-        let m = if M == 0 { self.n_responses } else { M };
-        // `sw * 1.0` is `sw`: the design's first column, as push_multi computes it.
-        let rows = x.iter().map(|&t| [1.0, t - x_ref]);
-        let resp = responses.chunks_exact(m).map(|r| r.iter().copied());
-        // Counts are far below 2^63, where `c as i64 as f64` is `c as f64`
-        // (one instruction on baseline x86-64 instead of an unsigned sequence).
-        #[allow(clippy::cast_possible_wrap, clippy::cast_precision_loss)]
-        let ws = counts.iter().map(|&c| c as i64 as f64);
-        self.accumulate::<_, _, 2, M>(rows, resp, ws);
-    }
-
     /// Rotate validated rows into the state, `BLOCK_ROWS` at a time.
     ///
     /// `rows`, `responses` and `weights` give each row's `x`, `y` and weight;

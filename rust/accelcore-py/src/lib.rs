@@ -8,7 +8,6 @@ mod decimate;
 mod errors;
 mod gateway;
 mod heldout;
-mod pipeline;
 mod reader;
 mod regression;
 mod robust;
@@ -26,8 +25,6 @@ mod _accelcore {
     use super::decimate::{py_blocks_from_arrays, PyDecimatedBlocks, PyDecimator};
     #[pymodule_export]
     use super::heldout::{PyBlockedLeastSquares, PyHeldOutFit};
-    #[pymodule_export]
-    use super::pipeline::{PyFusedPipeline, PyPipelineResult};
     #[pymodule_export]
     use super::reader::{
         py_merge_runs, py_plan_split, py_read_run, py_read_run_range, py_run_from_state,

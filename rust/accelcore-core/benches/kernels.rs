@@ -1,13 +1,12 @@
-//! Throughput of the fused pipeline and of each kernel on one core, in samples/s.
+//! Throughput of each kernel on one core, in samples/s.
 //!
 //! Plain timing (no criterion, so the workspace builds quickly): `cargo bench
-//! -p accelcore-core --bench pipeline -- --nocapture` prints one line per
+//! -p accelcore-core --bench kernels -- --nocapture` prints one line per
 //! kernel (median of 5 runs over 1e7 samples of time, temperature and 3 channels;
 //! `ACCELCORE_BENCH_N` and `ACCELCORE_BENCH_REPEAT` change both).
 #![allow(clippy::print_stderr)]
 use accelcore_core::{
-    read_run, BinnerConfig, CsvFormat, Decimator, DecimatorConfig, FusedPipeline, LeastSquares,
-    PipelineConfig, TemperatureBinner,
+    read_run, BinnerConfig, CsvFormat, Decimator, DecimatorConfig, LeastSquares, TemperatureBinner,
 };
 use ndarray::{Array2, Axis, Slice};
 use std::fmt::Write as _;
@@ -72,7 +71,7 @@ fn throughput() {
         hi_c: 85.0,
         ..BinnerConfig::default()
     };
-    // ACCELCORE_BENCH=fused (a comma-separated list) runs only those kernels, e.g. under perf.
+    // ACCELCORE_BENCH=read (a comma-separated list) runs only those kernels, e.g. under perf.
     let only = std::env::var("ACCELCORE_BENCH").unwrap_or_default();
     let want = |name: &str| only.is_empty() || only.split(',').any(|w| w == name);
     let report = |name: &str, rate: f64| eprintln!("{name:<10} {:8.1} M samples/s", rate / 1e6);
@@ -125,10 +124,6 @@ fn throughput() {
             }),
         );
     }
-    let config = PipelineConfig {
-        binner,
-        ..PipelineConfig::default()
-    };
     if want("read") {
         // A 20 Hz log as `accelcore.simulate` writes it (time to 0.01 s, temperature
         // to 0.001 degC, volts to 1 uV), from disk (page cache) to decimated blocks.
@@ -146,15 +141,5 @@ fn throughput() {
         report("read", rate);
         eprintln!("{:<10} {:8.1} MB/s", "read", rate * mb / t.len() as f64);
         std::fs::remove_file(&path).unwrap();
-    }
-    if want("fused") {
-        report(
-            "fused",
-            median_rate(|| {
-                let mut p = FusedPipeline::new(config.clone()).unwrap();
-                p.push(&t, &temp, ch.view()).unwrap();
-                black_box(p.finish().unwrap());
-            }),
-        );
     }
 }
