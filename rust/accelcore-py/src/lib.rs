@@ -25,7 +25,7 @@ mod _accelcore {
     #[pymodule_export]
     use super::decimate::{py_blocks_from_arrays, PyDecimatedBlocks, PyDecimator};
     #[pymodule_export]
-    use super::heldout::{PyBlockedLeastSquares, PyHeldOutFit};
+    use super::heldout::{PyBlockedLeastSquares, PyFoldedLeastSquares, PyHeldOutFit};
     #[pymodule_export]
     use super::pipeline::{PyFusedPipeline, PyPipelineResult};
     #[pymodule_export]
