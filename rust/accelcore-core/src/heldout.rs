@@ -231,8 +231,13 @@ impl BlockedLeastSquares {
                 ),
             });
         }
-        // Validate every value before touching any factor (a chunk is all or nothing).
+        // Validate every value before touching any factor (a chunk is all or nothing):
+        // a branch-free screen of contiguous input first, the offending row only if it fails.
+        let all_finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
         for (what, values) in [("design", design), ("response", responses)] {
+            if values.as_slice().is_some_and(all_finite) {
+                continue;
+            }
             for (i, row) in values.outer_iter().enumerate() {
                 if let Some(j) = row.iter().position(|v| !v.is_finite()) {
                     return Err(Error::NonFinite {
