@@ -337,9 +337,7 @@ class FoldedLeastSquares:
     ``O(n_folds * P * q**2 + n_blocks * P**2)`` for ``P`` columns and ``q`` selected.
     """
 
-    def cross_validate(
-        self, columns: ArrayLike | None = None, *, response: int = 0
-    ) -> HeldOutFit:
+    def cross_validate(self, columns: ArrayLike | None = None, *, response: int = 0) -> HeldOutFit:
         """Cross-validate the model of some columns for one response.
 
         Parameters
