@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from accelcore.core import BlockedLeastSquares
-from accelcore.errors import NonFiniteError, ParameterError
+from accelcore.errors import NonFiniteError, ParameterError, ShapeError
 from accelcore.reference.heldout import cross_validate
 from strategies import seeds
 
@@ -57,6 +57,51 @@ def test_heldout_errors_equal_refitting_the_rows(
     assert got.in_sample_rss == pytest.approx(want.in_sample_rss, rel=1e-9)
     assert got.heldout_rss == pytest.approx(float(np.sum(want.heldout_rss_per_block)), rel=1e-9)
     assert got.not_identified == want.not_identified == []
+
+
+@given(
+    seed=seeds,
+    n_blocks=st.integers(3, 8),
+    n_folds=st.integers(2, 4),
+    subset=st.lists(st.integers(0, 4), min_size=1, max_size=5, unique=True),
+    response=st.integers(0, 2),
+)
+def test_a_subset_of_a_wide_design_equals_refitting_its_rows(
+    seed: int, n_blocks: int, n_folds: int, subset: list[int], response: int
+) -> None:
+    x, y, w, block = _problem(seed, n_blocks, 5, 30)
+    ys = np.column_stack([y, y + x[:, 1] ** 2, y - 3.0 * x[:, 2]])
+    block_fold = np.arange(n_blocks) % n_folds
+    cv = BlockedLeastSquares(5, n_blocks, n_responses=3)
+    cv.push(x, ys, block, w)
+    folds = cv.folds(block_fold)
+    got = folds.cross_validate(subset, response=response)
+    want = cross_validate(x[:, subset], ys[:, response], block, block_fold, w)
+    np.testing.assert_allclose(
+        got.heldout_rss_per_block, want.heldout_rss_per_block, rtol=1e-9, atol=1e-15
+    )
+    np.testing.assert_allclose(got.coefficients, want.coefficients, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(
+        got.fold_coefficients, want.fold_coefficients, rtol=1e-10, atol=1e-12
+    )
+    assert got.in_sample_rss == pytest.approx(want.in_sample_rss, rel=1e-9)
+    once = cv.cross_validate(block_fold, columns=subset, response=response)
+    np.testing.assert_array_equal(once.heldout_rss_per_block, got.heldout_rss_per_block)
+
+
+def test_subset_queries_refuse_bad_columns_and_responses() -> None:
+    x, y, w, block = _problem(2, 3, 3, 20)
+    cv = BlockedLeastSquares(3, 3, n_responses=2)
+    with pytest.raises(ShapeError):
+        cv.push(x, y, block, w)
+    cv.push(x, np.column_stack([y, y]), block, w)
+    folds = cv.folds([0, 1, 2])
+    assert (folds.n_columns, folds.n_folds, cv.n_responses) == (3, 3, 2)
+    for bad in ([], [1, 1], [3], [-1]):
+        with pytest.raises(ParameterError, match="columns"):
+            folds.cross_validate(bad)
+    with pytest.raises(ParameterError, match="response"):
+        folds.cross_validate([0], response=2)
 
 
 def test_a_column_missing_from_a_training_fold_is_held_at_zero() -> None:

@@ -325,13 +325,52 @@ class HeldOutFit:
     def rows_per_block(self) -> NDArray[np.uint64]: ...
 
 @final
+class FoldedLeastSquares:
+    """The factors of a :class:`BlockedLeastSquares` for one fold assignment.
+
+    Made by :meth:`BlockedLeastSquares.folds`: each block's factor, each fold's
+    training factor (every other fold, merged) and the factor of all data, over
+    every column and response. :meth:`cross_validate` then fits any subset of the
+    columns for one response without visiting a row: each training factor is
+    reduced to the subset (exact algebra) and each block scored from its full
+    factor with the coefficients zero-padded. A query costs
+    ``O(n_folds * P * q**2 + n_blocks * P**2)`` for ``P`` columns and ``q`` selected.
+    """
+
+    def cross_validate(self, columns: ArrayLike | None = None, *, response: int = 0) -> HeldOutFit:
+        """Cross-validate the model of some columns for one response.
+
+        Parameters
+        ----------
+        columns : array_like of int, optional
+            Distinct column indices, in the order of the coefficients returned
+            (of two dependent columns the later is held at 0); default all.
+        response : int, default 0
+            Which response.
+
+        Raises
+        ------
+        accelcore.ParameterError
+            Columns empty, repeated or out of range; response out of range.
+        accelcore.InsufficientDataError
+            No block holds a row.
+        """
+
+    @property
+    def n_columns(self) -> int: ...
+    @property
+    def n_folds(self) -> int: ...
+
+@final
 class BlockedLeastSquares:
     """Per-block least-squares factors; the held-out error of any folds by merging them.
 
     Rows are pushed once with their block; :meth:`cross_validate` then fits the model
     without each fold by merging the other blocks' factors (Givens QR, exact algebra,
     never normal equations) and scores each block from its own factor
-    (``||R β - z||² + rss``), without visiting a row again.
+    (``||R β - z||² + rss``), without visiting a row again. Push the wide design of
+    many candidate models (several responses when they share it) once, fix the folds
+    once with :meth:`folds`, and cross-validate any subset of columns from there.
 
     Parameters
     ----------
@@ -339,9 +378,13 @@ class BlockedLeastSquares:
         Number of unknowns, 1 to 64.
     n_blocks : int
         Number of blocks.
+    n_responses : int, default 1
+        Right-hand sides sharing the design, 1 to 64.
     """
 
-    def __new__(cls, n_columns: int, n_blocks: int) -> BlockedLeastSquares: ...
+    def __new__(
+        cls, n_columns: int, n_blocks: int, *, n_responses: int = 1
+    ) -> BlockedLeastSquares: ...
     def push(
         self,
         design: ArrayLike,
@@ -349,7 +392,7 @@ class BlockedLeastSquares:
         block: ArrayLike,
         weights: ArrayLike | None = None,
     ) -> None:
-        """Push rows: ``design`` (n, p), ``response`` (n), the block of each row, weights (n).
+        """Push rows: ``design`` (n, p), ``response`` (n) or (n, n_responses), blocks, weights.
 
         Raises
         ------
@@ -357,13 +400,15 @@ class BlockedLeastSquares:
             A non-finite value (the chunk is refused whole).
         accelcore.ParameterError
             A block index out of range or a negative weight.
+        accelcore.ShapeError
+            Lengths that disagree, or a 1-D response with several responses.
         """
 
     def merge(self, other: BlockedLeastSquares) -> None:
         """Merge another accumulator of the same shape, block by block."""
 
-    def cross_validate(self, block_fold: ArrayLike) -> HeldOutFit:
-        """Fit on every block and, for each fold, without it; score each block held out.
+    def folds(self, block_fold: ArrayLike) -> FoldedLeastSquares:
+        """Fix a fold assignment: merge each fold's training factor once.
 
         Parameters
         ----------
@@ -371,10 +416,27 @@ class BlockedLeastSquares:
             Fold of each block (0, 1, ...; a fold may be empty).
         """
 
+    def cross_validate(
+        self, block_fold: ArrayLike, *, columns: ArrayLike | None = None, response: int = 0
+    ) -> HeldOutFit:
+        """Fit on every block and, for each fold, without it; score each block held out.
+
+        Parameters
+        ----------
+        block_fold : array_like of int, shape (n_blocks,)
+            Fold of each block (0, 1, ...; a fold may be empty).
+        columns : array_like of int, optional
+            Columns of the model, as in :meth:`FoldedLeastSquares.cross_validate`.
+        response : int, default 0
+            Which response.
+        """
+
     @property
     def n_columns(self) -> int: ...
     @property
     def n_blocks(self) -> int: ...
+    @property
+    def n_responses(self) -> int: ...
 
 @final
 class RunData:

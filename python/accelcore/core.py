@@ -9,7 +9,8 @@ result of one pass over ``a``'s input followed by ``b``'s.
 - :class:`TemperatureBinner`: per-temperature-bin count, mean and variance.
 - :class:`LeastSquares`: incremental weighted least squares (Givens QR).
 - :class:`BlockedLeastSquares`: one such factor per block of samples; the held-out
-  error of any fold assignment by merging factors (the diagnosis' engine).
+  error of any fold assignment by merging factors (the diagnosis' engine);
+  :class:`FoldedLeastSquares`, its folds fixed, cross-validates any subset of columns.
 - :func:`running_median`: a centred running median (the data-quality checks' smoother).
 
 All computation runs in Rust with the GIL released. ``accelcore.reference``
@@ -23,6 +24,7 @@ from accelcore._accelcore import (
     BlockedLeastSquares,
     DecimatedBlocks,
     Decimator,
+    FoldedLeastSquares,
     HeldOutFit,
     LeastSquares,
     LstsqSolution,
@@ -35,6 +37,7 @@ __all__ = [
     "BlockedLeastSquares",
     "DecimatedBlocks",
     "Decimator",
+    "FoldedLeastSquares",
     "HeldOutFit",
     "LeastSquares",
     "LstsqSolution",

@@ -4,13 +4,25 @@ Each run's samples inside the calibration's window are cut into *parts* (run x l
 the temperature cycle), parts into *blocks* of at most ``block_s`` seconds (the unit
 of the paired test), and blocks into *folds* (whole runs, legs, or thirds of each run
 in time). :meth:`Engine.cv` fits an axis model once per fold on the other folds and
-once on everything, with the core's Givens least squares
-(:class:`accelcore.core.LeastSquares`): one accumulator per fold, fed block by block,
-and the fold's held-out fit a merge of the other folds' accumulators. The held-out
-error of each block is that of its fold's coefficients on the block's rows.
+once on everything, and scores each block under the fit without its fold.
 
-A design that cannot identify some column (on the training data of a fold, say) is
-solved without it: the column's coefficient is zero (see :func:`_solve`).
+The rows are pushed once per catalogue, not once per model. The *catalogue* holds
+every column a candidate of the model space can use without a lag (offset bases, and
+gain bases times each axis' gravity, up to ``max_order``; drift; the extra columns);
+its rows go into one :class:`accelcore.core.BlockedLeastSquares`, the three axes as
+responses, and its folds are fixed once. A model whose free columns are all in a
+catalogue is a subset query (:meth:`accelcore.core.FoldedLeastSquares.cross_validate`):
+no row is visited again. Once the selection keeps a lag (:meth:`Engine.keep_lags`),
+a catalogue with that lag (every temperature basis lagged, or the rate term added)
+serves the models of later steps the same way. A model with other columns (the lag
+search's trial time constants, chosen from the data one at a time) pushes its own
+rows once, into its own blocked factors. Results are kept (:attr:`Engine.memo_size`
+models): the selection asks for the same models again (step figures, the lag's
+standard error).
+
+A column that some training data cannot identify is held at zero, the later of two
+dependent columns in the model's term order (see
+:meth:`accelcore.core.LeastSquares.solve_identifiable`).
 """
 
 from __future__ import annotations
@@ -22,11 +34,22 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore.core import LeastSquares
+from accelcore.core import BlockedLeastSquares, FoldedLeastSquares, HeldOutFit, LeastSquares
 from accelcore.errors import InsufficientDataError, ParameterError, SingularSystemError
 from accelcore.fitting.calibrate import CutFeatures, Stacked, block_weights
 from accelcore.input.session import Session
-from accelcore.model import AXES, Basis, Constant, Features, Term, design_columns
+from accelcore.model import (
+    AXES,
+    Basis,
+    Constant,
+    Elapsed,
+    Extra,
+    Features,
+    LaggedTemperaturePower,
+    TemperaturePower,
+    Term,
+    design_columns,
+)
 from accelcore.result.calibration import Calibration, nominal_sensitivity
 
 from .observables import leg_labels, rate_c_per_min
@@ -58,6 +81,7 @@ class Engine:
         folds: str,
         block_s: float,
         steady_c_per_min: float,
+        max_order: int = 5,
     ) -> None:
         self.session = session
         self.t_ref_c = base.t_ref_c
@@ -181,6 +205,16 @@ class Engine:
             ):
                 y -= s0 * self.gravity[:, a_i]
             self.y[a] = y * (1000.0 / self.scale[a])
+        self._memo: dict[tuple[str, tuple[_Key, ...]], HeldOutFit] = {}
+        self.max_order = max_order
+        self._extras = [
+            name
+            for name, values in self.extras.items()
+            if np.all(np.isfinite(values)) and float(np.std(values)) > 0
+        ]
+        # Catalogues of columns, their rows pushed once: (column index, folds) per lag.
+        self._wide: dict[tuple[str, float] | None, tuple[dict[_Key, int], FoldedLeastSquares]] = {}
+        self._push_catalogue(None)
 
     # -------------------------------------------------------------- folds
     def _choose_folds(
@@ -278,34 +312,97 @@ class Engine:
         return np.column_stack([self.column(t) for t in free])
 
     # -------------------------------------------------------------- fitting
+    def _push_catalogue(self, lag: tuple[str, float] | None) -> None:
+        """Push the columns of a catalogue once (three responses) and fix its folds.
+
+        ``lag`` None: the catalogue without a lag. ``("die", tau)``: every temperature
+        basis lagged by ``tau``. ``("rate", tau)``: the one without a lag plus the rate
+        term ``lag(tau):dT^1``.
+        """
+        plain: list[Basis] = [TemperaturePower(k) for k in range(1, self.max_order + 1)]
+        temps: list[Basis] = plain
+        if lag is not None and lag[0] == "die":
+            temps = [LaggedTemperaturePower(lag[1], k) for k in range(1, self.max_order + 1)]
+        offsets: list[Basis] = [Constant(), *temps, Elapsed()]
+        offsets += [Extra(name) for name in self._extras]
+        if lag is not None and lag[0] == "rate":
+            offsets.append(LaggedTemperaturePower(lag[1], 1))
+        gains: list[Basis] = [Constant(), *temps]
+        keys: list[_Key] = [(b, None) for b in offsets] + [(b, a) for a in AXES for b in gains]
+        keys = keys[:_MAX_COLUMNS]
+        design = np.empty((self.n, len(keys)))
+        for i, key in enumerate(keys):
+            design[:, i] = self._key_column(key)
+        if not np.all(np.isfinite(design)):
+            return
+        wide = BlockedLeastSquares(len(keys), int(self.block_start.size), n_responses=len(AXES))
+        wide.push(design, np.column_stack([self.y[a] for a in AXES]), self.sample_block, self.w)
+        self._wide[lag] = ({k: i for i, k in enumerate(keys)}, wide.folds(self.block_fold))
+
+    def keep_lags(self, die: Sequence[float], rate: Sequence[float]) -> None:
+        """Keep a catalogue (rows pushed once) for each lag the models now hold; drop the rest.
+
+        ``die`` and ``rate`` are the time constants of the models' die lags and rate
+        terms. Lagged bases of other time constants are forgotten too.
+        """
+        wanted: set[tuple[str, float] | None] = {None}
+        wanted |= {("die", float(t)) for t in die} | {("rate", float(t)) for t in rate}
+        for lag in list(self._wide):
+            if lag not in wanted:
+                del self._wide[lag]
+        self.drop_lag_cache([*die, *rate])
+        for lag in wanted:
+            if lag not in self._wide:
+                self._push_catalogue(lag)
+
+    def _key_column(self, key: _Key) -> FloatArray:
+        basis, source = key
+        col = self.basis(basis)
+        return col if source is None else col * self.gravity[:, AXES.index(source)]
+
+    def _keys(self, axis: str, terms: Sequence[Term]) -> tuple[_Key, ...]:
+        """Column keys of the free terms of an axis model, in term order."""
+        return tuple(_key(t) for t in self.free_terms(axis, terms))
+
+    def _heldout(self, axis: str, keys: tuple[_Key, ...]) -> HeldOutFit | None:
+        """Held-out fit of the columns ``keys`` for ``axis`` (None: no free column)."""
+        if not keys:
+            return None
+        memo_key = (axis, keys)
+        fit = self._memo.get(memo_key)
+        if fit is not None:
+            return fit
+        wide = next((w for w in self._wide.values() if all(k in w[0] for k in keys)), None)
+        if wide is not None:
+            columns = [wide[0][k] for k in keys]
+            fit = wide[1].cross_validate(columns, response=AXES.index(axis))
+        else:
+            x = np.column_stack([self._key_column(k) for k in keys])
+            own = BlockedLeastSquares(x.shape[1], int(self.block_start.size))
+            own.push(x, self.y[axis], self.sample_block, self.w)
+            fit = own.cross_validate(self.block_fold)
+        if len(self._memo) >= self.memo_size:
+            self._memo.clear()
+        self._memo[memo_key] = fit
+        return fit
+
+    #: Held-out fits kept (models asked for again are not fitted again).
+    memo_size = 256
+
     def fit(self, axis: str, terms: Sequence[Term]) -> Fit:
         """Fit the free terms of ``terms`` on every fold's training data and on all data."""
-        x = self.design(axis, terms)
-        y, w = self.y[axis], self.w
-        p = x.shape[1]
-        beta_fold = np.zeros((self.n_folds, p))
-        if p == 0:
-            return Fit(x, np.zeros(0), beta_fold, float((w * y * y).sum()))
-        # One accumulator per fold, its blocks pushed in time order (row slices, no copy).
-        folds = []
-        for spans in self.fold_spans:
-            acc = LeastSquares(p, column_names=_NAMES[:p])
-            for s, e in spans:
-                acc.push(x[s:e], y[s:e], w[s:e])
-            folds.append(acc)
-        for k in range(self.n_folds):
-            if not self.fold_spans[k]:
-                continue
-            train = LeastSquares(p, column_names=_NAMES[:p])
-            for j, acc in enumerate(folds):
-                if j != k:
-                    train.merge(acc)
-            beta_fold[k] = _solve(train, x, y, w, self.sample_fold != k)[0]
-        total = LeastSquares(p, column_names=_NAMES[:p])
-        for acc in folds:
-            total.merge(acc)
-        beta_in, rss_in = _solve(total, x, y, w, None)
-        return Fit(x, beta_in, beta_fold, rss_in)
+        keys = self._keys(axis, terms)
+        x = np.column_stack([self._key_column(k) for k in keys]) if keys else np.zeros((self.n, 0))
+        held = self._heldout(axis, keys)
+        if held is None:
+            y, w = self.y[axis], self.w
+            return Fit(x, np.zeros(0), np.zeros((self.n_folds, 0)), float((w * y * y).sum()))
+        beta_in = np.asarray(held.coefficients, dtype=np.float64)
+        beta_fold = np.zeros((self.n_folds, beta_in.size))
+        beta_fold[: held.fold_coefficients.shape[0]] = held.fold_coefficients
+        # A fold without a weighted row leaves every row for training: the fit on all data.
+        beta_fold[np.isnan(beta_fold).any(axis=1)] = beta_in
+        return Fit(x, beta_in, beta_fold, float(held.in_sample_rss))
 
     def heldout_residuals(self, y: FloatArray, fit: Fit) -> FloatArray:
         """Residual of every sample under the fit that held its fold out, mg."""
@@ -317,16 +414,18 @@ class Engine:
 
     def cv(self, axis: str, terms: Sequence[Term]) -> CV:
         """Held-out error per block and in-sample error of an axis model."""
-        fit = self.fit(axis, terms)
-        r_out = self.heldout_residuals(self.y[axis], fit)
-        sse_blocks = np.bincount(
-            self.sample_block, weights=self.w * r_out * r_out, minlength=self.block_start.size
-        ).astype(np.float64)
-        sse_in = max(fit.rss_in, 0.0)
+        held = self._heldout(axis, self._keys(axis, terms))
+        if held is None:
+            y2 = self.w * self.y[axis] ** 2
+            sse_blocks = np.bincount(self.sample_block, weights=y2, minlength=self.block_start.size)
+            sse_in = float(y2.sum())
+        else:
+            sse_blocks = np.array(held.heldout_rss_per_block, dtype=np.float64)
+            sse_in = max(float(held.in_sample_rss), 0.0)
         wsum = float(self.w.sum())
         return CV(
             tuple(terms),
-            sse_blocks,
+            sse_blocks.astype(np.float64),
             sse_in,
             math.sqrt(float(sse_blocks.sum()) / wsum),
             math.sqrt(sse_in / wsum),
@@ -361,8 +460,19 @@ class Fit:
     rss_in: float
 
 
+#: A design column: a basis, alone (offset, ``None``) or times an axis' gravity (gain).
+_Key = tuple[Basis, str | None]
+
+#: Most columns of one least-squares problem in the core.
+_MAX_COLUMNS = 64
+
 #: Column names of the accumulators: the column's index, so that a rank error maps back.
-_NAMES = [str(i) for i in range(64)]
+_NAMES = [str(i) for i in range(_MAX_COLUMNS)]
+
+
+def _key(term: Term) -> _Key:
+    """Return the design column of a term."""
+    return (term.basis, (term.source or "x") if term.kind == "gain" else None)
 
 
 def _solve(

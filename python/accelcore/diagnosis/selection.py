@@ -105,8 +105,10 @@ class _Selection:
                 self.cv_cur[c.axis] = c.cv
             if best != "thermal_lag":
                 self._revisit_lags()
-            taus = [t for s in self.specs.values() for t in (s.tau, s.rate_tau) if t is not None]
-            self.eng.drop_lag_cache(taus)
+            self.eng.keep_lags(
+                [s.tau for s in self.specs.values() if s.tau is not None],
+                [s.rate_tau for s in self.specs.values() if s.rate_tau is not None],
+            )
             axes = tuple(c.axis for c in chosen)
             models, _, _ = fit_models(self.eng, self.specs, axes)
             params = added_parameters(self.eng, models, axes, best, self.specs)
@@ -310,7 +312,14 @@ def diagnose(
     """
     _check_options(families, max_steps, min_improvement, alpha)
     base, specs, notes = _starting_point(session, calibration, t_ref_c, window_c)
-    eng = Engine(session, base, folds=folds, block_s=block_s, steady_c_per_min=steady_c_per_min)
+    eng = Engine(
+        session,
+        base,
+        folds=folds,
+        block_s=block_s,
+        steady_c_per_min=steady_c_per_min,
+        max_order=max_order,
+    )
     usable_extras = _usable_extras(session, eng, extras, notes)
     warn = confounding(eng, specs, usable_extras, confound_r)
     warn += notes

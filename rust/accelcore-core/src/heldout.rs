@@ -19,6 +19,20 @@
 //! argument of [`BlockedLeastSquares::cross_validate`], so trying other folds,
 //! or the in-sample fit, costs `O(blocks · p²)`, not `O(rows · p²)`.
 //!
+//! # Many models from one pass
+//!
+//! To score many candidate models, push the *wide* design of every candidate
+//! column once (with several responses, [`BlockedLeastSquares::with_responses`],
+//! when they share the design) and fix the folds once
+//! ([`BlockedLeastSquares::folds`]: the per-fold training factors, merged once).
+//! [`FoldedLeastSquares::cross_validate`] then fits any subset of the columns,
+//! in any order, for one response: each training factor is reduced to the
+//! subset ([`LeastSquares::select_columns`], exact algebra), and each block is
+//! scored from its full factor with the coefficients zero-padded
+//! (`||R_b β − z_b||² + rss_b`, exact). A query costs
+//! `O(folds · P · q² + blocks · P²)` for `P` columns in all and `q` selected,
+//! whatever the number of rows.
+//!
 //! # Example
 //!
 //! ```
@@ -34,18 +48,41 @@
 //! let fit = cv.cross_validate(&[0, 0, 1, 1])?;
 //! assert!(fit.heldout_rss_per_block.iter().all(|&e| e < 1e-20));
 //! assert!((fit.coefficients[1] - 2.0).abs() < 1e-12);
+//! // The slope alone (column 1), with the folds merged once.
+//! let folds = cv.folds(&[0, 0, 1, 1])?;
+//! let slope = folds.cross_validate(&[1], 0)?;
+//! assert_eq!(slope.coefficients.len(), 1);
+//! assert!(slope.heldout_rss() > 0.0);
 //! # Ok::<(), accelcore_core::Error>(())
 //! ```
+
+use std::borrow::Cow;
 
 use crate::error::{Error, Result};
 use crate::regression::LeastSquares;
 use ndarray::{ArrayView2, Axis, Slice};
 
-/// Per-block least-squares factors of one design and response.
+/// Per-block least-squares factors of one design and one or more responses.
 #[derive(Debug, Clone)]
 pub struct BlockedLeastSquares {
     n_columns: usize,
+    n_responses: usize,
     blocks: Vec<LeastSquares>,
+}
+
+/// The factors of a [`BlockedLeastSquares`] for one fold assignment: each
+/// block's, each fold's training data (every other fold, merged) and all data.
+/// Made by [`BlockedLeastSquares::folds`]; query with
+/// [`FoldedLeastSquares::cross_validate`].
+#[derive(Debug, Clone)]
+pub struct FoldedLeastSquares {
+    n_columns: usize,
+    n_responses: usize,
+    blocks: Vec<LeastSquares>,
+    block_fold: Vec<u32>,
+    /// Training factor of each fold (`None`: the fold holds no row).
+    training: Vec<Option<LeastSquares>>,
+    all: LeastSquares,
 }
 
 /// In-sample and held-out fits of a [`BlockedLeastSquares`] for one fold assignment.
@@ -75,11 +112,19 @@ impl HeldOutFit {
 }
 
 impl BlockedLeastSquares {
-    /// `n_blocks` empty factors of `n_columns` unknowns (1..=64).
+    /// `n_blocks` empty factors of `n_columns` unknowns (1..=64), one response.
     pub fn new(n_columns: usize, n_blocks: usize) -> Result<Self> {
-        let empty = LeastSquares::new(n_columns, None)?;
+        Self::with_responses(n_columns, 1, n_blocks)
+    }
+
+    /// `n_blocks` empty factors of `n_columns` unknowns and `n_responses`
+    /// right-hand sides sharing the design (1..=64 each; see
+    /// [`LeastSquares::with_responses`]).
+    pub fn with_responses(n_columns: usize, n_responses: usize, n_blocks: usize) -> Result<Self> {
+        let empty = LeastSquares::with_responses(n_columns, n_responses, None)?;
         Ok(Self {
             n_columns,
+            n_responses,
             blocks: vec![empty; n_blocks],
         })
     }
@@ -87,6 +132,11 @@ impl BlockedLeastSquares {
     /// Number of columns.
     pub fn n_columns(&self) -> usize {
         self.n_columns
+    }
+
+    /// Number of responses.
+    pub fn n_responses(&self) -> usize {
+        self.n_responses
     }
 
     /// Number of blocks.
@@ -104,13 +154,39 @@ impl BlockedLeastSquares {
     /// go in as one chunk, so rows sorted by block cost no more than one push.
     ///
     /// The whole chunk is validated first: on error nothing is pushed. Errors:
-    /// [`Error::Shape`] for mismatched lengths, [`Error::InvalidParameter`] for
-    /// a block index out of range, and those of [`LeastSquares::push`] (a
-    /// non-finite value names its row in this chunk).
+    /// [`Error::Shape`] for mismatched lengths (or an accumulator of several
+    /// responses: use [`BlockedLeastSquares::push_multi`]),
+    /// [`Error::InvalidParameter`] for a block index out of range, and those of
+    /// [`LeastSquares::push`] (a non-finite value names its row in this chunk).
     pub fn push(
         &mut self,
         design: ArrayView2<'_, f64>,
         response: &[f64],
+        weights: Option<&[f64]>,
+        block: &[u32],
+    ) -> Result<()> {
+        if self.n_responses != 1 {
+            return Err(Error::Shape {
+                what: "responses (use push_multi)",
+                expected: self.n_responses,
+                got: 1,
+            });
+        }
+        let responses =
+            ArrayView2::from_shape((response.len(), 1), response).map_err(|_| Error::Shape {
+                what: "response",
+                expected: design.nrows(),
+                got: response.len(),
+            })?;
+        self.push_multi(design, responses, weights, block)
+    }
+
+    /// Push rows with `n_responses` right-hand sides: `responses` is (n, m);
+    /// otherwise as [`BlockedLeastSquares::push`].
+    pub fn push_multi(
+        &mut self,
+        design: ArrayView2<'_, f64>,
+        responses: ArrayView2<'_, f64>,
         weights: Option<&[f64]>,
         block: &[u32],
     ) -> Result<()> {
@@ -122,8 +198,15 @@ impl BlockedLeastSquares {
                 got: design.ncols(),
             });
         }
+        if responses.ncols() != self.n_responses {
+            return Err(Error::Shape {
+                what: "response columns",
+                expected: self.n_responses,
+                got: responses.ncols(),
+            });
+        }
         for (what, len) in [
-            ("response", response.len()),
+            ("response", responses.nrows()),
             ("block", block.len()),
             ("weights", weights.map_or(n, <[f64]>::len)),
         ] {
@@ -148,22 +231,22 @@ impl BlockedLeastSquares {
                 ),
             });
         }
-        // Validate every value before touching any factor (a chunk is all or nothing).
-        for (i, row) in design.outer_iter().enumerate() {
-            if let Some(j) = row.iter().position(|v| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: "design",
-                    row: i as u64,
-                    column: j,
-                });
+        // Validate every value before touching any factor (a chunk is all or nothing):
+        // a branch-free screen of contiguous input first, the offending row only if it fails.
+        let all_finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
+        for (what, values) in [("design", design), ("response", responses)] {
+            if values.as_slice().is_some_and(all_finite) {
+                continue;
             }
-        }
-        if let Some(i) = response.iter().position(|v| !v.is_finite()) {
-            return Err(Error::NonFinite {
-                what: "response",
-                row: i as u64,
-                column: 0,
-            });
+            for (i, row) in values.outer_iter().enumerate() {
+                if let Some(j) = row.iter().position(|v| !v.is_finite()) {
+                    return Err(Error::NonFinite {
+                        what,
+                        row: i as u64,
+                        column: j,
+                    });
+                }
+            }
         }
         if let Some(w) = weights {
             if let Some(i) = w.iter().position(|v| !v.is_finite()) {
@@ -187,10 +270,10 @@ impl BlockedLeastSquares {
             while stop < n && block[stop] == b {
                 stop += 1;
             }
-            let rows = design.slice_axis(Axis(0), Slice::from(start..stop));
-            self.blocks[b as usize].push(
-                rows,
-                &response[start..stop],
+            let rows = Slice::from(start..stop);
+            self.blocks[b as usize].push_multi(
+                design.slice_axis(Axis(0), rows),
+                responses.slice_axis(Axis(0), rows),
                 weights.map(|w| &w[start..stop]),
             )?;
             start = stop;
@@ -200,13 +283,18 @@ impl BlockedLeastSquares {
 
     /// Add another accumulator's blocks to these, block by block (same shape).
     pub fn merge(&mut self, other: &BlockedLeastSquares) -> Result<()> {
-        if other.n_columns != self.n_columns || other.blocks.len() != self.blocks.len() {
+        if other.n_columns != self.n_columns
+            || other.n_responses != self.n_responses
+            || other.blocks.len() != self.blocks.len()
+        {
             return Err(Error::Incompatible {
                 reason: format!(
-                    "shapes differ: {} columns x {} blocks vs {} x {}",
+                    "shapes differ: {} columns x {} responses x {} blocks vs {} x {} x {}",
                     self.n_columns,
+                    self.n_responses,
                     self.blocks.len(),
                     other.n_columns,
+                    other.n_responses,
                     other.blocks.len()
                 ),
             });
@@ -217,13 +305,14 @@ impl BlockedLeastSquares {
         Ok(())
     }
 
-    /// Fit on every block, and for each fold the fit on the other folds and the
-    /// held-out error of its blocks. `block_fold[b]` is the fold of block `b`
-    /// (folds are numbered 0..=max; a fold may be empty).
+    /// Fix a fold assignment: merge the blocks of each fold, then for each fold
+    /// the other folds (its training data), and all of them. `block_fold[b]` is
+    /// the fold of block `b` (folds are numbered 0..=max; a fold may be empty).
+    /// Costs `O(blocks · P³ + folds² · P³)` once; every query of the result is
+    /// then independent of the rows and of this cost.
     ///
-    /// Errors: [`Error::Shape`] when `block_fold` is not `n_blocks` long,
-    /// [`Error::Empty`] when no block holds a row.
-    pub fn cross_validate(&self, block_fold: &[u32]) -> Result<HeldOutFit> {
+    /// Errors: [`Error::Shape`] when `block_fold` is not `n_blocks` long.
+    pub fn folds(&self, block_fold: &[u32]) -> Result<FoldedLeastSquares> {
         if block_fold.len() != self.blocks.len() {
             return Err(Error::Shape {
                 what: "block_fold",
@@ -236,42 +325,109 @@ impl BlockedLeastSquares {
             .map(|&f| f as usize + 1)
             .max()
             .unwrap_or(0);
-        let mut folds = vec![LeastSquares::new(self.n_columns, None)?; n_folds];
+        let empty = LeastSquares::with_responses(self.n_columns, self.n_responses, None)?;
+        let mut folds = vec![empty.clone(); n_folds];
         for (b, &f) in self.blocks.iter().zip(block_fold) {
             folds[f as usize].merge(b)?;
         }
-        let mut all = LeastSquares::new(self.n_columns, None)?;
+        let mut all = empty.clone();
         for f in &folds {
             all.merge(f)?;
         }
-        let (coefficients, not_identified) = all.solve_identifiable(0)?;
-        let in_sample_rss = all.residual_sum_squares_at(&coefficients, 0)?;
-        let mut fold_coefficients = Vec::with_capacity(n_folds);
+        let mut training = Vec::with_capacity(n_folds);
         for k in 0..n_folds {
             if folds[k].n_rows() == 0 {
-                fold_coefficients.push(Vec::new());
+                training.push(None);
                 continue;
             }
-            let mut train = LeastSquares::new(self.n_columns, None)?;
+            let mut train = empty.clone();
             for (j, f) in folds.iter().enumerate() {
                 if j != k {
                     train.merge(f)?;
                 }
             }
-            let beta = if train.n_rows() == 0 {
-                vec![0.0; self.n_columns]
-            } else {
-                train.solve_identifiable(0)?.0
-            };
-            fold_coefficients.push(beta);
+            training.push(Some(train));
+        }
+        Ok(FoldedLeastSquares {
+            n_columns: self.n_columns,
+            n_responses: self.n_responses,
+            blocks: self.blocks.clone(),
+            block_fold: block_fold.to_vec(),
+            training,
+            all,
+        })
+    }
+
+    /// Fit every column on every block, and for each fold the fit on the other
+    /// folds and the held-out error of its blocks, for response 0: the same as
+    /// `self.folds(block_fold)?.cross_validate(&[0, 1, ..], 0)`.
+    ///
+    /// Errors: [`Error::Shape`] when `block_fold` is not `n_blocks` long,
+    /// [`Error::Empty`] when no block holds a row.
+    pub fn cross_validate(&self, block_fold: &[u32]) -> Result<HeldOutFit> {
+        let all: Vec<usize> = (0..self.n_columns).collect();
+        self.folds(block_fold)?.cross_validate(&all, 0)
+    }
+}
+
+impl FoldedLeastSquares {
+    /// Number of columns of the full design.
+    pub fn n_columns(&self) -> usize {
+        self.n_columns
+    }
+
+    /// Number of folds (the largest fold index + 1).
+    pub fn n_folds(&self) -> usize {
+        self.training.len()
+    }
+
+    /// Cross-validate the model of the columns `columns` (distinct indices, in
+    /// the order of the returned coefficients) for response `response`: fit on
+    /// every block, and for each fold on the other folds, holding columns those
+    /// rows cannot identify at 0 (which of two dependent columns is held
+    /// depends on this order: the later one); score each block under the fit
+    /// without its fold. Equal, up to rounding, to pushing only those columns.
+    ///
+    /// Errors: [`Error::InvalidParameter`] for a response out of range or bad
+    /// `columns` (see [`LeastSquares::select_columns`]), [`Error::Empty`] when
+    /// no block holds a row.
+    pub fn cross_validate(&self, columns: &[usize], response: usize) -> Result<HeldOutFit> {
+        if response >= self.n_responses {
+            return Err(Error::InvalidParameter {
+                name: "response",
+                reason: format!(
+                    "{response} is out of range: {} response(s)",
+                    self.n_responses
+                ),
+            });
+        }
+        let identity =
+            columns.len() == self.n_columns && columns.iter().enumerate().all(|(i, &j)| i == j);
+        let select = |ls| reduce(ls, columns, identity);
+        let all = select(&self.all)?;
+        let (coefficients, not_identified) = all.solve_identifiable(response)?;
+        let in_sample_rss = all.residual_sum_squares_at(&coefficients, response)?;
+        let q = columns.len();
+        let mut fold_coefficients = Vec::with_capacity(self.training.len());
+        for train in &self.training {
+            fold_coefficients.push(match train {
+                None => Vec::new(),
+                Some(t) if t.n_rows() == 0 => vec![0.0; q],
+                Some(t) => select(t)?.solve_identifiable(response)?.0,
+            });
+        }
+        let mut padded = vec![vec![0.0; self.n_columns]; fold_coefficients.len()];
+        for (pad, beta) in padded.iter_mut().zip(&fold_coefficients) {
+            for (&j, &b) in columns.iter().zip(beta) {
+                pad[j] = b;
+            }
         }
         let mut heldout_rss_per_block = Vec::with_capacity(self.blocks.len());
-        for (b, &f) in self.blocks.iter().zip(block_fold) {
-            let beta = &fold_coefficients[f as usize];
+        for (b, &f) in self.blocks.iter().zip(&self.block_fold) {
             heldout_rss_per_block.push(if b.n_rows() == 0 {
                 0.0
             } else {
-                b.residual_sum_squares_at(beta, 0)?
+                b.residual_sum_squares_at(&padded[f as usize], response)?
             });
         }
         Ok(HeldOutFit {
@@ -282,5 +438,18 @@ impl BlockedLeastSquares {
             heldout_rss_per_block,
             rows_per_block: self.blocks.iter().map(LeastSquares::n_rows).collect(),
         })
+    }
+}
+
+/// A factor reduced to `columns` (borrowed when they are all of its columns, in order).
+fn reduce<'a>(
+    ls: &'a LeastSquares,
+    columns: &[usize],
+    identity: bool,
+) -> Result<Cow<'a, LeastSquares>> {
+    if identity {
+        Ok(Cow::Borrowed(ls))
+    } else {
+        ls.select_columns(columns).map(Cow::Owned)
     }
 }

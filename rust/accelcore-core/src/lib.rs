@@ -33,7 +33,7 @@ pub use compensate::compensate;
 pub use decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 pub use error::{Error, Result};
 pub use features::first_order_lag;
-pub use heldout::{BlockedLeastSquares, HeldOutFit};
+pub use heldout::{BlockedLeastSquares, FoldedLeastSquares, HeldOutFit};
 pub use reader::{
     merge_runs, plan_split, read_run, read_run_from, read_run_hashed, read_run_range, CsvFormat,
     RunData, SplitPlan,

@@ -799,6 +799,89 @@ impl LeastSquares {
         Ok(out)
     }
 
+    /// The same problem over the columns `columns`, in that order (distinct
+    /// indices): equal, up to rounding, to an accumulator that was pushed the
+    /// same rows with only those columns. [`LeastSquares::without_columns`]
+    /// keeps the remaining columns in place; this also reorders them, which
+    /// decides which of two dependent columns the rank test reports.
+    ///
+    /// The rows of `[R | z]` are `Q' [X | y]` for an orthogonal `Q`: picking
+    /// columns from them and rotating them into a fresh triangle gives the
+    /// factor of the selected design; the residual sums carry over, plus what
+    /// is left of the responses. Costs `O(p q^2)` for `q` selected columns.
+    ///
+    /// Errors: [`Error::InvalidParameter`] when `columns` is empty, repeats an
+    /// index or holds one out of range.
+    pub fn select_columns(&self, columns: &[usize]) -> Result<LeastSquares> {
+        let p = self.n_columns;
+        if let Some(&bad) = columns.iter().find(|&&j| j >= p) {
+            return Err(Error::InvalidParameter {
+                name: "columns",
+                reason: format!("column {bad} is out of range: {p} column(s)"),
+            });
+        }
+        if let Some((k, &j)) = columns
+            .iter()
+            .enumerate()
+            .find(|(k, j)| columns[..*k].contains(j))
+        {
+            return Err(Error::InvalidParameter {
+                name: "columns",
+                reason: format!("column {j} is selected twice (position {k})"),
+            });
+        }
+        if columns.is_empty() {
+            return Err(Error::InvalidParameter {
+                name: "columns",
+                reason: "no column selected".to_string(),
+            });
+        }
+        let m = self.n_responses;
+        let names = columns
+            .iter()
+            .map(|&j| self.column_names[j].clone())
+            .collect();
+        let q = columns.len();
+        let mut out = LeastSquares::with_responses(q, m, Some(names))?;
+        let width = p + m;
+        let mut extra = vec![0.0; m];
+        let mut row = vec![0.0; q + m];
+        for i in 0..p {
+            let src = &self.rz[i * width..(i + 1) * width];
+            for (dst, &j) in row.iter_mut().zip(columns) {
+                *dst = src[j];
+            }
+            row[q..].copy_from_slice(&src[p..]);
+            let Some(start) = row.iter().position(|&v| v != 0.0) else {
+                continue;
+            };
+            if start >= q {
+                // Nothing left in the design part: the response entries are residual.
+                for (acc, &v) in extra.iter_mut().zip(&row[q..]) {
+                    *acc += v * v;
+                }
+                continue;
+            }
+            rotate_block_in(
+                &mut out.rz,
+                &mut out.diag_sq,
+                q,
+                &mut row,
+                start,
+                &mut extra,
+            );
+        }
+        for ((acc, &o), &e) in out.rss.iter_mut().zip(&self.rss).zip(&extra) {
+            *acc = o + e;
+        }
+        for (dst, &j) in out.column_sum_squares.iter_mut().zip(columns) {
+            *dst = self.column_sum_squares[j];
+        }
+        out.n_rows = self.n_rows;
+        out.rows_seen = self.rows_seen;
+        Ok(out)
+    }
+
     /// Coefficients of response `response` with every non-identifiable column
     /// held at zero (a basic solution), and the columns so held.
     ///

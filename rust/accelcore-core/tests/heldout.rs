@@ -1,6 +1,8 @@
 //! Tests of held-out least squares from per-block factors: `residual_sum_squares_at`,
-//! `without_columns`, `solve_identifiable` and `BlockedLeastSquares::cross_validate`,
-//! each against a brute-force computation over the rows.
+//! `without_columns`, `select_columns`, `solve_identifiable`,
+//! `BlockedLeastSquares::cross_validate` and the subset queries of
+//! `FoldedLeastSquares::cross_validate`, each against a brute-force computation
+//! over the rows.
 
 use accelcore_core::{BlockedLeastSquares, Error, LeastSquares};
 use ndarray::{Array2, Axis};
@@ -106,6 +108,61 @@ fn without_columns_equals_pushing_the_reduced_rows() {
     assert_eq!(reduced.n_rows(), 300);
     assert!(ls.without_columns(&[0, 1, 2, 3, 4]).is_err());
     assert!(ls.without_columns(&[5]).is_err());
+}
+
+#[test]
+fn select_columns_equals_pushing_the_selected_rows_in_that_order() {
+    let (x, y, w) = problem(300, 5, 13);
+    let mut ls = LeastSquares::new(5, None).unwrap();
+    ls.push(x.view(), &y, Some(&w)).unwrap();
+    for columns in [vec![3, 0, 4], vec![4], vec![2, 1], vec![0, 1, 2, 3, 4]] {
+        let selected = ls.select_columns(&columns).unwrap();
+        let xs = x.select(Axis(1), &columns);
+        let mut direct = LeastSquares::new(columns.len(), None).unwrap();
+        direct.push(xs.view(), &y, Some(&w)).unwrap();
+        let (a, b) = (selected.finish().unwrap(), direct.finish().unwrap());
+        for (u, v) in a.coefficients.iter().zip(&b.coefficients) {
+            assert!(
+                (u - v).abs() <= 1e-11 * v.abs().max(1.0),
+                "{columns:?}: {u} vs {v}"
+            );
+        }
+        let rel = (a.residual_sum_squares - b.residual_sum_squares).abs() / b.residual_sum_squares;
+        assert!(
+            rel <= 1e-10,
+            "{columns:?}: rss {} vs {}",
+            a.residual_sum_squares,
+            b.residual_sum_squares
+        );
+        assert_eq!(selected.n_rows(), 300);
+        let names: Vec<String> = columns.iter().map(|j| format!("x{j}")).collect();
+        assert_eq!(selected.column_names(), names.as_slice());
+    }
+    // The order decides which of two equal columns is held at zero: the later one.
+    let mut xd = Array2::zeros((300, 3));
+    for i in 0..300 {
+        xd[[i, 0]] = x[[i, 0]];
+        xd[[i, 1]] = x[[i, 1]];
+        xd[[i, 2]] = x[[i, 1]];
+    }
+    let mut dup = LeastSquares::new(3, None).unwrap();
+    dup.push(xd.view(), &y, Some(&w)).unwrap();
+    assert_eq!(dup.solve_identifiable(0).unwrap().1, vec![2]);
+    let swapped = dup.select_columns(&[2, 0, 1]).unwrap();
+    assert_eq!(swapped.solve_identifiable(0).unwrap().1, vec![2]);
+    assert_eq!(
+        dup.select_columns(&[1, 2]).unwrap().deficient_columns(),
+        vec![1]
+    );
+    for bad in [vec![], vec![0, 0], vec![3]] {
+        assert!(matches!(
+            dup.select_columns(&bad),
+            Err(Error::InvalidParameter {
+                name: "columns",
+                ..
+            })
+        ));
+    }
 }
 
 #[test]
@@ -215,6 +272,64 @@ proptest! {
     }
 
     #[test]
+    fn a_subset_of_a_wide_design_equals_refitting_its_rows(
+        seed in 0_u64..10_000,
+        n_blocks in 3_usize..10,
+        n_folds in 2_u32..5,
+        mask in 1_u32..64,
+        reversed in any::<bool>(),
+        response in 0_usize..3,
+    ) {
+        // Six columns, three responses (the first a fit of the design, the others
+        // the same plus a smooth function of the row): any subset, either order.
+        let (p, n) = (6, 40 * n_blocks);
+        let (x, y0, w) = problem(n, p, seed);
+        let ys: Vec<Vec<f64>> = (0..3)
+            .map(|r| {
+                y0.iter()
+                    .enumerate()
+                    .map(|(i, &v)| v + f64::from(r) * (i as f64 / n as f64).sin())
+                    .collect()
+            })
+            .collect();
+        let responses = Array2::from_shape_fn((n, 3), |(i, r)| ys[r][i]);
+        let block: Vec<u32> = (0..n).map(|i| ((i / 3) % n_blocks) as u32).collect();
+        let block_fold: Vec<u32> = (0..n_blocks).map(|b| b as u32 % n_folds).collect();
+        let mut cv = BlockedLeastSquares::with_responses(p, 3, n_blocks).unwrap();
+        cv.push_multi(x.view(), responses.view(), Some(&w), &block).unwrap();
+        let mut columns: Vec<usize> = (0..p).filter(|j| mask & (1 << j) != 0).collect();
+        if reversed {
+            columns.reverse();
+        }
+        let folds = cv.folds(&block_fold).unwrap();
+        let fit = folds.cross_validate(&columns, response).unwrap();
+        let xs = x.select(Axis(1), &columns);
+        let want = brute_force(&xs, &ys[response], &w, &block, &block_fold);
+        for (got, want) in fit.heldout_rss_per_block.iter().zip(&want) {
+            prop_assert!((got - want).abs() <= 1e-9 * want.max(1e-12), "{} vs {}", got, want);
+        }
+        let mut whole = LeastSquares::new(columns.len(), None).unwrap();
+        whole.push(xs.view(), &ys[response], Some(&w)).unwrap();
+        let sol = whole.finish().unwrap();
+        prop_assert_eq!(fit.coefficients.len(), columns.len());
+        for (u, v) in fit.coefficients.iter().zip(&sol.coefficients) {
+            prop_assert!((u - v).abs() <= 1e-10 * v.abs().max(1.0));
+        }
+        prop_assert!((fit.in_sample_rss - sol.residual_sum_squares).abs() <= 1e-9 * sol.residual_sum_squares);
+        // Every column, response 0: the same numbers as cross_validate.
+        if response == 0 {
+            let every: Vec<usize> = (0..p).collect();
+            let mut single = BlockedLeastSquares::new(p, n_blocks).unwrap();
+            single.push(x.view(), &ys[0], Some(&w), &block).unwrap();
+            let a = folds.cross_validate(&every, 0).unwrap();
+            let b = single.cross_validate(&block_fold).unwrap();
+            for (u, v) in a.heldout_rss_per_block.iter().zip(&b.heldout_rss_per_block) {
+                prop_assert!((u - v).abs() <= 1e-9 * v.max(1e-12));
+            }
+        }
+    }
+
+    #[test]
     fn merged_halves_equal_one_accumulator(seed in 0_u64..10_000, n_blocks in 2_usize..8) {
         let n = 30 * n_blocks;
         let (x, y, w) = problem(n, 3, seed);
@@ -299,4 +414,54 @@ fn bad_input_is_refused_whole() {
         cv.cross_validate(&[0, 1]),
         Err(Error::Empty { .. })
     ));
+}
+
+#[test]
+fn subset_queries_refuse_bad_columns_and_responses() {
+    let (x, y, w) = problem(40, 3, 2);
+    let ys = Array2::from_shape_fn((40, 2), |(i, r)| y[i] + r as f64);
+    let block: Vec<u32> = (0..40).map(|i| (i / 20) as u32).collect();
+    let mut cv = BlockedLeastSquares::with_responses(3, 2, 2).unwrap();
+    assert_eq!(cv.n_responses(), 2);
+    assert!(matches!(
+        cv.push(x.view(), &y, Some(&w), &block),
+        Err(Error::Shape { .. })
+    ));
+    assert!(matches!(
+        cv.push_multi(
+            x.view(),
+            ys.slice_axis(Axis(1), (..1).into()),
+            Some(&w),
+            &block
+        ),
+        Err(Error::Shape {
+            what: "response columns",
+            ..
+        })
+    ));
+    cv.push_multi(x.view(), ys.view(), Some(&w), &block)
+        .unwrap();
+    let folds = cv.folds(&[0, 1]).unwrap();
+    assert_eq!(folds.n_folds(), 2);
+    assert!(matches!(
+        folds.cross_validate(&[0, 1], 2),
+        Err(Error::InvalidParameter {
+            name: "response",
+            ..
+        })
+    ));
+    for bad in [vec![], vec![1, 1], vec![3]] {
+        assert!(matches!(
+            folds.cross_validate(&bad, 0),
+            Err(Error::InvalidParameter {
+                name: "columns",
+                ..
+            })
+        ));
+    }
+    assert!(matches!(cv.folds(&[0]), Err(Error::Shape { .. })));
+    // A response that is column 0 plus 1: the two responses differ by exactly that.
+    let a = folds.cross_validate(&[2, 0], 0).unwrap();
+    let b = folds.cross_validate(&[2, 0], 1).unwrap();
+    assert!((b.coefficients[1] - a.coefficients[1] - 1.0).abs() < 1e-10);
 }

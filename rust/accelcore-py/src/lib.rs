@@ -24,7 +24,7 @@ mod _accelcore {
     #[pymodule_export]
     use super::decimate::{py_blocks_from_arrays, PyDecimatedBlocks, PyDecimator};
     #[pymodule_export]
-    use super::heldout::{PyBlockedLeastSquares, PyHeldOutFit};
+    use super::heldout::{PyBlockedLeastSquares, PyFoldedLeastSquares, PyHeldOutFit};
     #[pymodule_export]
     use super::reader::{
         py_merge_runs, py_plan_split, py_read_run, py_read_run_range, py_run_from_state,
