@@ -35,6 +35,7 @@ from accelcore.files import atomic_open
 from accelcore.input.format import SessionFormat
 from accelcore.input.quality import check_session
 from accelcore.input.session import Session
+from accelcore.outputs import exports
 from accelcore.outputs.report import fleet_report, is_bulk_output, session_report
 from accelcore.outputs.tables import datasheet_section, summary_text
 from accelcore.result.calibration import Calibration
@@ -48,6 +49,7 @@ __all__ = [
     "cmd_compensate",
     "cmd_demo",
     "cmd_diagnose",
+    "cmd_export",
     "cmd_report",
     "cmd_simulate",
 ]
@@ -209,6 +211,26 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
             " the model is extrapolated there, not clamped",
             file=sys.stderr,
         )
+    return 0
+
+
+def cmd_export(args: argparse.Namespace, out: TextIO) -> int:
+    """``accelcore export``: a calibration file as PX4, ArduPilot or imucal parameters."""
+    same = Path(args.output).resolve() == Path(args.calibration).resolve()
+    if same or (Path(args.output).exists() and Path(args.output).samefile(args.calibration)):
+        raise UsageError(f"the output {args.output} is the input calibration file")
+    cal = Calibration.load(args.calibration)
+    result: exports.Px4Export | exports.ArduPilotExport | exports.ImucalExport
+    if args.target == "px4":
+        result = exports.export_px4(cal, instance=args.instance, device_id=args.device_id)
+    elif args.target == "ardupilot":
+        result = exports.export_ardupilot(cal, imu=args.imu)
+    else:
+        result = exports.export_imucal(cal, temperature_c=args.temperature)
+    require_folder(args.output)
+    result.write(args.output)
+    print(result.text(), file=out)
+    print(f"written: {args.output}", file=out)
     return 0
 
 

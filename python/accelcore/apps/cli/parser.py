@@ -28,6 +28,17 @@ _EPILOGS = {
       --column temperature=die_temp --column time=t_ms --time-unit ms
 
   The output holds the time and temperature columns, then x_g, y_g, z_g.""",
+    "export": """examples:
+  accelcore export adxl335.cal.json --to px4 --device-id 2621474 -o tc_accel.params
+  accelcore export adxl335.cal.json --to ardupilot --imu 1 -o tcal.param
+  accelcore export adxl335.cal.json --to imucal -o adxl335.imucal.json
+
+  PX4 (TC_A<i>_*, QGroundControl parameter file) and ArduPilot (INS_TCAL<n>_*,
+  .param file) hold one cubic offset per axis: the export is the least-squares
+  cubic of this calibration over its fitted range, and what it loses against the
+  full model (max and RMS, mg; sensitivity drift) is printed. imucal holds bias,
+  scale and misalignment at one temperature (--temperature, default T_ref).
+  Conventions and signs: docs/interop.md.""",
     "diagnose": """example:
   accelcore diagnose examples/adxl335-demo/generated --json diagnosis.json""",
     "bulk": """example:
@@ -143,6 +154,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--time-unit", choices=tuple(_TIME_UNITS), help="default: s")
     p.add_argument("--chunk-rows", type=int, default=DEFAULT_CHUNK_ROWS, help=argparse.SUPPRESS)
     p.set_defaults(func=commands.cmd_compensate, data_path="input")
+
+    p = add("export", "write a calibration as PX4, ArduPilot or imucal parameters")
+    p.add_argument("calibration", metavar="CAL.json", help="file written by calibrate --save")
+    p.add_argument("--to", required=True, choices=("px4", "ardupilot", "imucal"), dest="target")
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="file to write")
+    p.add_argument(
+        "--instance", type=int, default=0, metavar="I", help="PX4: TC_A<I>_* (default 0)"
+    )
+    p.add_argument(
+        "--device-id", type=int, default=0, metavar="ID", help="PX4: the sensor's TC_A<I>_ID"
+    )
+    p.add_argument("--imu", type=int, default=1, metavar="N", help="ArduPilot: INS_TCAL<N>_*")
+    p.add_argument(
+        "--temperature",
+        type=_window,
+        metavar="C",
+        help="imucal: temperature of the exported calibration (default: T_ref)",
+    )
+    p.set_defaults(func=commands.cmd_export, data_path="calibration")
 
     p = add("diagnose", "calibrate and diagnose what the model still gets wrong")
     p.add_argument("session", metavar="SESSION", help="session folder (holding session.toml)")
