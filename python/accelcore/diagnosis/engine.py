@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from accelcore.core import BlockedLeastSquares, FoldedLeastSquares, HeldOutFit, LeastSquares
 from accelcore.errors import InsufficientDataError, ParameterError, SingularSystemError
 from accelcore.fitting.calibrate import CutFeatures, Stacked, block_weights
+from accelcore.input.records import records
 from accelcore.input.session import Session
 from accelcore.model import (
     AXES,
@@ -84,6 +85,8 @@ class Engine:
         max_order: int = 5,
     ) -> None:
         self.session = session
+        # Contiguous pieces of one log are one record: folds never follow file cuts.
+        self.records = records(session)
         self.t_ref_c = base.t_ref_c
         window = None if not np.all(np.isfinite(base.window_c)) else base.window_c
         self.references = dict(base.references)
@@ -93,7 +96,7 @@ class Engine:
         part_leg: list[int] = []
         leg_kinds: dict[tuple[int, int], str] = {}
         rates: list[FloatArray] = []
-        for i, run in enumerate(session.runs):
+        for i, run in enumerate(self.records):
             if len(run) == 0:
                 continue
             time_s = run.time_s - run.time_s[0]
@@ -241,7 +244,7 @@ class Engine:
         if folds in ("auto", "runs") and len(runs) >= 3:
             pf = np.searchsorted(runs, part_run).astype(np.int64)
             if folds == "runs" or diverse(pf):
-                names = [f"run {self.session.runs[r].label}" for r in runs]
+                names = [f"run {self.records[r].label}" for r in runs]
                 return "runs", names, pf[self.block_part]
         n_legs = int(part_leg.max()) + 1
         if folds in ("auto", "legs") and n_legs >= 2:

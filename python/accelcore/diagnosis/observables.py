@@ -15,6 +15,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from accelcore.errors import InsufficientDataError, TemperatureRangeWarning
+from accelcore.input.records import records
 from accelcore.input.session import Session
 from accelcore.result.calibration import Calibration
 
@@ -155,7 +156,7 @@ def residuals(calibration: Calibration, session: Session) -> pd.DataFrame:
     """
     frames = []
     lo, hi = calibration.temperature_range_c
-    for i, run in enumerate(session.runs):
+    for i, run in enumerate(records(session)):
         if len(run) == 0:
             continue
         with warnings.catch_warnings():

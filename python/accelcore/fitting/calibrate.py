@@ -30,6 +30,7 @@ from accelcore import core
 from accelcore._accelcore import __version__
 from accelcore.errors import InsufficientDataError, ParameterError, SingularSystemError
 from accelcore.input.quality import excluded_blocks
+from accelcore.input.records import records
 from accelcore.input.session import Run, Session
 from accelcore.model import (
     AXES,
@@ -91,7 +92,11 @@ def stack_session(
     runs: Sequence[int] | None = None,
     robust: bool = True,
 ) -> Stacked:
-    """Per run: features, gravity, output and weights of the samples inside the window.
+    """Per record: features, gravity, output and weights of the samples inside the window.
+
+    A record is a run, or the contiguous pieces of one log joined
+    (:func:`accelcore.input.records.records`; ``runs`` indexes the records), so a
+    log's history does not restart where its files were cut.
 
     Features (elapsed time, lagged temperature) are computed on the whole run
     first and then cut to the window, so a lag filter sees the run's history.
@@ -100,7 +105,7 @@ def stack_session(
     feats: list[Features] = []
     grav, out, wts, idx = [], [], [], []
     notes: list[str] = []
-    for i, run in enumerate(session.runs):
+    for i, run in enumerate(records(session)):
         if runs is not None and i not in runs:
             continue
         time_s = run.time_s - run.time_s[0] if len(run) else run.time_s

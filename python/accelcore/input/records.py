@@ -1,0 +1,113 @@
+"""Records: the runs of a session with the pieces of one continuous log joined.
+
+A chamber log cut into several files — by the logger's file size limit, or by a
+user who stores each leg of the cycle apart — is still one record of one part in
+one orientation. Everything that depends on a sample's history (a thermal lag's
+state, the smoothed dT/dt, the time since the start, the legs of the temperature
+cycle, the held-out folds) must see it whole, or the answer would depend on where
+the files were cut. :func:`records` joins runs of the same orientation whose
+absolute times follow each other within a few block intervals; runs that restart
+their clock, overlap, or leave a real pause stay apart.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+
+from accelcore.input.session import Run, RunStats, Session
+
+__all__ = ["CONTIGUOUS_BLOCKS", "records"]
+
+#: Two runs continue one record when the second starts at most this many block
+#: intervals (the median spacing of either run's decimated blocks) after the first ends.
+CONTIGUOUS_BLOCKS = 10.0
+
+
+def _interval_s(run: Run) -> float:
+    if len(run) < 2:
+        return 0.0
+    return float(np.median(np.diff(run.time_s)))
+
+
+def _continues(prev: Run, nxt: Run) -> bool:
+    if prev.orientation != nxt.orientation or len(prev) == 0 or len(nxt) == 0:
+        return False
+    if set(prev.extras) != set(nxt.extras):
+        return False
+    gap = float(nxt.time_s[0] - prev.time_s[-1])
+    limit = CONTIGUOUS_BLOCKS * max(_interval_s(prev), _interval_s(nxt))
+    return 0.0 < gap <= limit
+
+
+def _stats(parts: Sequence[Run]) -> RunStats:
+    first = parts[0].stats
+    lo = [p.stats.channel_min for p in parts if p.stats.channel_min.size]
+    hi = [p.stats.channel_max for p in parts if p.stats.channel_max.size]
+    return dataclasses.replace(
+        first,
+        n_rows=sum(p.stats.n_rows for p in parts),
+        n_skipped_nonfinite=sum(p.stats.n_skipped_nonfinite for p in parts),
+        n_truncated_rows=sum(p.stats.n_truncated_rows for p in parts),
+        n_gaps=sum(p.stats.n_gaps for p in parts),
+        max_interval_s=max(p.stats.max_interval_s for p in parts),
+        duration_s=float(parts[-1].time_s[-1] - parts[0].time_s[0]),
+        channel_min=np.min(lo, axis=0) if lo else first.channel_min,
+        channel_max=np.max(hi, axis=0) if hi else first.channel_max,
+    )
+
+
+def _join(parts: Sequence[Run]) -> Run:
+    if len(parts) == 1:
+        return parts[0]
+    return Run(
+        orientation=parts[0].orientation,
+        gravity_g=parts[0].gravity_g,
+        time_s=np.concatenate([p.time_s for p in parts]),
+        temperature_c=np.concatenate([p.temperature_c for p in parts]),
+        output=np.concatenate([p.output for p in parts]),
+        count=np.concatenate([p.count for p in parts]),
+        extras={k: np.concatenate([p.extras[k] for p in parts]) for k in parts[0].extras},
+        source=parts[0].source,
+        stats=_stats(parts),
+    )
+
+
+def records(session: Session) -> tuple[Run, ...]:
+    """Return the session's runs with contiguous pieces of one log joined, in session order.
+
+    Runs of one orientation are joined when, in absolute time, each starts after
+    the previous one ends by at most :data:`CONTIGUOUS_BLOCKS` block intervals,
+    they are listed in that order in the session, and they log the same extra
+    columns. Every other run is returned as it is,
+    so a session of one file per orientation gives back its runs unchanged.
+
+    Parameters
+    ----------
+    session : Session
+
+    Returns
+    -------
+    tuple of Run
+        A joined record keeps the first piece's orientation and source; its
+        arrays are the pieces' in time order.
+    """
+    order = sorted(
+        range(len(session.runs)),
+        key=lambda i: (
+            session.runs[i].orientation,
+            float(session.runs[i].time_s[0]) if len(session.runs[i]) else np.inf,
+            i,
+        ),
+    )
+    groups: list[list[int]] = []
+    for i in order:
+        last = groups[-1][-1] if groups else -1
+        if groups and last < i and _continues(session.runs[last], session.runs[i]):
+            groups[-1].append(i)
+        else:
+            groups.append([i])
+    groups.sort(key=lambda g: min(g))
+    return tuple(_join([session.runs[i] for i in g]) for g in groups)
