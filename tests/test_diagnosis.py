@@ -164,6 +164,21 @@ def test_drift_and_temperature_confounded_on_a_single_ramp() -> None:
     assert any("drift" in w and "temperature" in w for w in d.warnings), d.warnings
 
 
+def test_confounded_effects_are_attributed_in_one_line_never_arbitrary() -> None:
+    session = make_session((), 8, cool_back=False, soak_min=0.5)
+    d = diagnose(session, window_c=None, max_steps=1)
+    lines = [w for w in d.warnings if "drift" in w and "temperature" in w]
+    assert len(lines) == 1, d.warnings
+    assert not any("arbitrary" in w for w in d.warnings)
+    if "drift" in d.effects:
+        assert "the model holds both" in lines[0]
+    else:
+        assert (
+            "attributes it to temperature (linear tempco) (the base model), not to drift"
+            in (lines[0])
+        )
+
+
 def test_report_text_json_and_plot() -> None:
     d = diagnose(make_session((se.OffsetCurvature(),), 9))
     rep = d.report()

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -110,9 +110,81 @@ def tau_se(eng: Engine, axis: str, spec: Spec) -> float:
     return math.sqrt(2.0 * sigma2 / curv) if curv > 0 else math.nan
 
 
+#: How plausible each signature is as the cause of a thermal calibration's residual,
+#: most plausible first: the base model's temperature line, then the temperature
+#: effects of the part, then geometry, then the history of the run, then anything logged.
+_PLAUSIBILITY = (
+    "temperature (linear tempco)",
+    "offset_curvature",
+    "sensitivity_curvature",
+    "misalignment",
+    "thermal_lag",
+    "drift",
+    "extra",
+)
+
+
+def _family(signature: str) -> str:
+    """Return the selection's family name for a confounding signature."""
+    if signature.startswith("misalignment"):
+        return "misalignment"
+    return signature
+
+
+def _rank(signature: str) -> int:
+    if signature in _PLAUSIBILITY:
+        return _PLAUSIBILITY.index(signature)
+    head = signature.split(" (")[0].split(":")[0]
+    return _PLAUSIBILITY.index(head) if head in _PLAUSIBILITY else len(_PLAUSIBILITY)
+
+
+@dataclass(frozen=True)
+class Confounded:
+    """Two effects whose model columns the data cannot tell apart.
+
+    Attributes
+    ----------
+    first, second : str
+        The two signatures, the physically more plausible one first.
+    r : float
+        Largest |correlation| of their model columns over the axes.
+    axes : tuple of str
+        Axes where it exceeds the threshold.
+    """
+
+    first: str
+    second: str
+    r: float
+    axes: tuple[str, ...]
+
+    def text(self, added: Sequence[str]) -> str:
+        """Say, in one line, which of the two the diagnosed model holds (``added``: effects)."""
+        held = [
+            s for s in (self.first, self.second) if s == _PLAUSIBILITY[0] or _family(s) in added
+        ]
+        pair = (
+            f"{self.first} and {self.second} cannot be told apart on this data "
+            f"(|r| = {self.r:.3f} between their model columns, axes {','.join(self.axes)})"
+        )
+        advice = (
+            "log a profile that separates them "
+            "(e.g. heat and cool back, or soak at several temperatures)"
+        )
+        if len(held) == 2:
+            return f"{pair}: the model holds both, their coefficients trade off; {advice}"
+        if len(held) == 1:
+            other = self.second if held[0] == self.first else self.first
+            why = "the base model" if held[0] == _PLAUSIBILITY[0] else "it cut the held-out error"
+            return f"{pair}: the model attributes it to {held[0]} ({why}), not to {other}; {advice}"
+        return (
+            f"{pair}: neither was added; were one needed, {self.first} is the physically "
+            f"plausible one; {advice}"
+        )
+
+
 def confounding(
     eng: Engine, specs: Mapping[str, Spec], extras: Sequence[str], threshold: float
-) -> list[str]:
+) -> list[Confounded]:
     """Pairs of effects whose signature columns correlate beyond ``threshold``."""
     found: dict[tuple[str, str], tuple[float, list[str]]] = {}
     w = eng.w
@@ -139,7 +211,7 @@ def confounding(
             nrm = math.sqrt(float((w * v * v).sum()))
             if nrm > 0:
                 centred[k] = v / nrm
-        keys = list(centred)
+        keys = sorted(centred, key=_rank)
         for i in range(len(keys)):
             for j in range(i + 1, len(keys)):
                 r = float((w * centred[keys[i]] * centred[keys[j]]).sum())
@@ -147,11 +219,4 @@ def confounding(
                     pair = (keys[i], keys[j])
                     prev = found.get(pair, (0.0, []))
                     found[pair] = (max(prev[0], abs(r)), [*prev[1], a])
-    out = []
-    for (p1, p2), (r, axes) in found.items():
-        out.append(
-            f"{p1} and {p2} cannot be told apart on this data (|r| = {r:.3f} between their "
-            f"model columns, axes {','.join(axes)}); which one is chosen is arbitrary: log a "
-            "profile that separates them (e.g. heat and cool back, or soak at several temperatures)"
-        )
-    return out
+    return [Confounded(p1, p2, r, tuple(axes)) for (p1, p2), (r, axes) in found.items()]

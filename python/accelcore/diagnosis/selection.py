@@ -321,13 +321,15 @@ def diagnose(
         max_order=max_order,
     )
     usable_extras = _usable_extras(session, eng, extras, notes)
-    warn = confounding(eng, specs, usable_extras, confound_r)
-    warn += notes
+    confounded = confounding(eng, specs, usable_extras, confound_r)
+    warn = list(notes)
     if eng.n_folds < 2:
         warn.append("fewer than two held-out folds: nothing can be selected")
     rules = _Rules(families, usable_extras, max_order, tau_range_s, min_improvement, alpha)
     selection = _Selection(eng, specs, rules)
     selection.run(max_steps)
+    added = [s.effect for s in selection.steps[1:]]
+    warn = [c.text(added) for c in confounded] + warn
     improved = _improved_calibration(base, eng, selection.specs, selection.steps)
     resid = {a: eng.residuals(a, selection.specs[a].terms(a))[0] for a in AXES}
     found = structures(
