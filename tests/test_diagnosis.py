@@ -179,6 +179,20 @@ def test_confounded_effects_are_attributed_in_one_line_never_arbitrary() -> None
         )
 
 
+def test_a_temperature_that_does_not_move_drives_nothing() -> None:
+    # Held at 25 °C with a drift: whatever is found, none of it is blamed on temperature.
+    session = make_session(
+        (se.Drift(),), 11, t_start_c=25.0, t_end_c=25.0, cool_back=False, soak_min=0.0
+    )
+    d = diagnose(session)
+    temperature_driven = {"offset_curvature", "sensitivity_curvature", "thermal_lag"}
+    assert not temperature_driven & set(d.effects), d.text()
+    assert any("no temperature-driven effect is tried or reported" in w for w in d.warnings)
+    assert not any("temperature" in w and "told apart" in w for w in d.warnings), d.warnings
+    blamed = {s.observable for s in d.unexplained}
+    assert not blamed & {"temperature_c", "dtemp_dt_c_per_min"}, d.text()
+
+
 def test_report_text_json_and_plot() -> None:
     d = diagnose(make_session((se.OffsetCurvature(),), 9))
     rep = d.report()

@@ -19,6 +19,7 @@ from accelcore.model import AXES, Elapsed, Extra, LaggedTemperaturePower, Temper
 
 from .engine import CV, Engine
 from .space import Spec, with_tau
+from .structure import MIN_TEMPERATURE_SPAN_C, temperature_span_c
 
 __all__ = ["confounding", "search_tau", "tau_se", "variants"]
 
@@ -188,16 +189,17 @@ def confounding(
     """Pairs of effects whose signature columns correlate beyond ``threshold``."""
     found: dict[tuple[str, str], tuple[float, list[str]]] = {}
     w = eng.w
+    moves = temperature_span_c(eng) >= MIN_TEMPERATURE_SPAN_C
     for a in AXES:
         a_i = AXES.index(a)
-        sig: dict[str, FloatArray] = {
-            "temperature (linear tempco)": eng.basis(TemperaturePower(1)),
-            "offset_curvature": eng.basis(TemperaturePower(2)),
-            "thermal_lag": eng.basis(LaggedTemperaturePower(_CONFOUND_TAU_S, 1))
-            - eng.basis(TemperaturePower(1)),
-            "drift": eng.basis(Elapsed()),
-        }
-        if np.unique(eng.gravity[:, a_i]).size >= 2:
+        sig: dict[str, FloatArray] = {"drift": eng.basis(Elapsed())}
+        if moves:  # a temperature that does not move confounds nothing
+            sig["temperature (linear tempco)"] = eng.basis(TemperaturePower(1))
+            sig["offset_curvature"] = eng.basis(TemperaturePower(2))
+            sig["thermal_lag"] = eng.basis(LaggedTemperaturePower(_CONFOUND_TAU_S, 1)) - eng.basis(
+                TemperaturePower(1)
+            )
+        if moves and np.unique(eng.gravity[:, a_i]).size >= 2:
             sig["sensitivity_curvature"] = eng.basis(TemperaturePower(2)) * eng.gravity[:, a_i]
         for b in AXES:
             if b != a and np.unique(eng.gravity[:, AXES.index(b)]).size >= 2:

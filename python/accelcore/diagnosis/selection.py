@@ -43,7 +43,12 @@ from .result import Diagnosis, Step
 from .search import confounding, variants
 from .space import FAMILIES, Spec, spec_from_terms, with_tau
 from .stats import paired_test, wrms
-from .structure import structures
+from .structure import (
+    MIN_TEMPERATURE_SPAN_C,
+    TEMPERATURE_FAMILIES,
+    structures,
+    temperature_span_c,
+)
 
 __all__ = ["diagnose"]
 
@@ -325,7 +330,15 @@ def diagnose(
     warn = list(notes)
     if eng.n_folds < 2:
         warn.append("fewer than two held-out folds: nothing can be selected")
-    rules = _Rules(families, usable_extras, max_order, tau_range_s, min_improvement, alpha)
+    tried = list(families)
+    span = temperature_span_c(eng)
+    if span < MIN_TEMPERATURE_SPAN_C:
+        tried = [f for f in tried if f not in TEMPERATURE_FAMILIES]
+        warn.append(
+            f"the temperature spans {span:.2f} °C (less than {MIN_TEMPERATURE_SPAN_C:g} °C): no "
+            "temperature-driven effect is tried or reported"
+        )
+    rules = _Rules(tried, usable_extras, max_order, tau_range_s, min_improvement, alpha)
     selection = _Selection(eng, specs, rules)
     selection.run(max_steps)
     added = [s.effect for s in selection.steps[1:]]

@@ -21,7 +21,23 @@ from .engine import Engine
 from .result import Structure
 from .stats import chi2_sf
 
-__all__ = ["structures"]
+__all__ = ["MIN_TEMPERATURE_SPAN_C", "TEMPERATURE_FAMILIES", "structures", "temperature_span_c"]
+
+#: Below this temperature span (5th to 95th percentile, °C) the temperature does not
+#: move: two of the paper's 0.5 °C bins. No temperature-driven effect is then tried,
+#: and structure against temperature or dT/dt is not reported (it would be noise in
+#: the thermometer, or time seen through a slow wander).
+MIN_TEMPERATURE_SPAN_C = 1.0
+
+#: Effect families driven by temperature.
+TEMPERATURE_FAMILIES = ("offset_curvature", "sensitivity_curvature", "thermal_lag")
+
+
+def temperature_span_c(eng: Engine) -> float:
+    """Return the span of the engine's temperatures, 5th to 95th percentile, °C."""
+    lo, hi = np.quantile(eng.temperature, [0.05, 0.95])
+    return float(hi - lo)
+
 
 FloatArray = NDArray[np.float64]
 
@@ -35,11 +51,11 @@ def structures(
     min_structure_mg: float,
 ) -> list[Structure]:
     """Bin the residual by each observable and test the binned means (generic check)."""
-    obs: dict[str, tuple[FloatArray, bool]] = {
-        "temperature_c": (eng.temperature, False),
-        "dtemp_dt_c_per_min": (eng.rate, False),
-        "elapsed_s": (eng.elapsed_s, True),
-    }
+    obs: dict[str, tuple[FloatArray, bool]] = {}
+    if temperature_span_c(eng) >= MIN_TEMPERATURE_SPAN_C:
+        obs["temperature_c"] = (eng.temperature, False)
+        obs["dtemp_dt_c_per_min"] = (eng.rate, False)
+    obs["elapsed_s"] = (eng.elapsed_s, True)
     for name, values in eng.extras.items():
         if np.nanstd(values) > 0:
             obs[name] = (values, False)
