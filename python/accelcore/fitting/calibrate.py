@@ -179,6 +179,7 @@ def fit_axis(
     names = [f"{axis}:{_public_name(t, axis)}" for t in terms]
     # Drop all-zero columns first (e.g. the sensitivity of an axis that never saw gravity).
     col_norm = np.sqrt((weight[:, None] * design**2).sum(axis=0))
+    n_used = int(np.count_nonzero(weight > 0))
     while True:
         for j in range(p):
             if estimated[j] and col_norm[j] == 0.0:
@@ -186,6 +187,11 @@ def fit_axis(
         cols = np.flatnonzero(estimated)
         if cols.size == 0:
             raise InsufficientDataError(f"axis {axis}: no term of the model is identified")
+        if n_used <= cols.size:
+            raise InsufficientDataError(
+                f"axis {axis}: {n_used} decimated sample(s) for {cols.size} model terms; a fit "
+                "needs more samples than terms (log longer sweeps, or check rate_hz)"
+            )
         y = response - design[:, ~estimated] @ fixed[~estimated]
         lsq = core.LeastSquares(int(cols.size), column_names=[names[j] for j in cols])
         lsq.push(np.ascontiguousarray(design[:, cols]), y, weight)
@@ -389,6 +395,37 @@ def _fit_paper(
     return axes, not_identified, notes, (t_lo, t_hi)
 
 
+def _parameter(name: str, text: str) -> ParameterError:
+    err = ParameterError(f"{name} {text}")
+    err.parameter = name
+    return err
+
+
+def _finite(value: object) -> bool:
+    return (
+        isinstance(value, (int, float, np.integer, np.floating))
+        and not isinstance(value, bool)
+        and math.isfinite(float(value))
+    )
+
+
+def _check_options(
+    t_ref_c: object, window_c: tuple[float, float] | None, bin_width_c: object
+) -> None:
+    """Argument errors before any data is touched, named after the argument."""
+    if not _finite(t_ref_c):
+        raise _parameter("t_ref_c", f"must be a finite temperature in °C, got {t_ref_c!r}")
+    if window_c is not None:
+        if len(window_c) != 2 or not all(_finite(v) for v in window_c):
+            raise _parameter("window_c", f"must be two finite temperatures, got {window_c!r}")
+        if not window_c[0] < window_c[1]:
+            raise _parameter(
+                "window_c", f"must be (low, high) with low < high, got {tuple(window_c)!r}"
+            )
+    if not _finite(bin_width_c) or not float(bin_width_c) > 0:  # type: ignore[arg-type]
+        raise _parameter("bin_width_c", f"must be a positive number, got {bin_width_c!r}")
+
+
 def calibrate(
     session: Session,
     method: Literal["joint", "paper"] = "joint",
@@ -433,6 +470,7 @@ def calibrate(
     """
     if method not in ("joint", "paper"):
         raise ParameterError(f"method must be 'joint' or 'paper', got {method!r}")
+    _check_options(t_ref_c, window_c, bin_width_c)
     session.check_orientations()
     options: dict[str, Any] = {
         "method": method,
