@@ -180,6 +180,13 @@ def fit_axis(
     # Drop all-zero columns first (e.g. the sensitivity of an axis that never saw gravity).
     col_norm = np.sqrt((weight[:, None] * design**2).sum(axis=0))
     n_used = int(np.count_nonzero(weight > 0))
+    for j, span, span_all in _thin_temperature_terms(axis, terms, data, parts, weight):
+        estimated[j] = False
+        notes.append(
+            f"{axis}: {_public_name(terms[j], axis)} not identified: the samples that carry it "
+            f"span {span:.3g} °C of the {span_all:.3g} °C fitted; held at 0 (log the "
+            "orientations of this axis over the whole sweep)"
+        )
     while True:
         for j in range(p):
             if estimated[j] and col_norm[j] == 0.0:
@@ -250,6 +257,43 @@ def fit_axis(
         axis, tuple(terms), coefficients, covariance, estimated, int(response.shape[0]), rms
     )
     return model, fixed_names, notes
+
+
+#: A temperature term is identified only by samples spread over at least this
+#: fraction of the fitted temperature span; fitted on less, it extrapolates a
+#: slope from a few degrees over the whole range.
+MIN_SPAN_FRACTION = 0.25
+
+
+def _thin_temperature_terms(
+    axis: str,
+    terms: Sequence[Term],
+    data: Stacked,
+    parts: Sequence[int] | range,
+    weight: NDArray[np.float64],
+) -> list[tuple[int, float, float]]:
+    """Temperature terms whose carrying samples span too little temperature: (index, spans)."""
+    temps = np.concatenate([data.features[i].temperature_c for i in parts])
+    grav = np.concatenate(
+        [np.broadcast_to(data.gravity[i], (len(data.features[i]), 3)) for i in parts]
+    )
+    used = weight > 0
+    if not used.any():
+        return []
+    span_all = float(np.ptp(temps[used]))
+    thin = []
+    for j, t in enumerate(terms):
+        if not t.basis.temperature_order:
+            continue
+        rows = used
+        if t.kind == "gain":
+            rows = used & (grav[:, AXES.index(t.source or axis)] != 0)
+        if not rows.any():
+            continue  # the term's column is zero: dropped as such by the fit
+        span = float(np.ptp(temps[rows]))
+        if span < MIN_SPAN_FRACTION * span_all:
+            thin.append((j, span, span_all))
+    return thin
 
 
 def _public_name(term: Term, axis: str) -> str:

@@ -427,20 +427,6 @@ fn map_columns(path: &str, header: &[String], format: &CsvFormat) -> Result<Colu
         }
         return Err(parse_error(path, 1, 1, reason));
     }
-    if let Some((first, second)) = duplicate_name(header) {
-        return Err(parse_error(
-            path,
-            1,
-            second as u64 + 1,
-            format!(
-                "column name '{}' appears twice in the header (columns {} and {}); \
-                 every column needs a distinct name",
-                header[second],
-                first + 1,
-                second + 1
-            ),
-        ));
-    }
     let mut names = format.channel_columns.clone();
     if format.keep_extra_columns {
         // A mask, not `channels.contains`: linear in the header width.
@@ -461,18 +447,6 @@ fn map_columns(path: &str, header: &[String], format: &CsvFormat) -> Result<Colu
         channels,
         names,
     })
-}
-
-/// The first header name that repeats an earlier one: (earlier index, repeat index).
-fn duplicate_name(header: &[String]) -> Option<(usize, usize)> {
-    let mut seen = std::collections::HashMap::with_capacity(header.len());
-    for (i, h) in header.iter().enumerate() {
-        if let Some(&first) = seen.get(h.as_str()) {
-            return Some((first, i));
-        }
-        seen.insert(h.as_str(), i);
-    }
-    None
 }
 
 /// Column-major batch of parsed rows waiting to be pushed.
@@ -1127,43 +1101,5 @@ mod plain_decimal_tests {
                 prop_assert_eq!(v.to_bits(), full(&s).unwrap().to_bits(), "{}", s);
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod header_tests {
-    use super::read_run_from;
-    use crate::{CsvFormat, DecimatorConfig, Error};
-
-    fn read(text: &[u8]) -> crate::Result<crate::RunData> {
-        read_run_from(
-            text,
-            "dup.csv",
-            &CsvFormat::default(),
-            DecimatorConfig::default(),
-        )
-    }
-
-    #[test]
-    fn a_repeated_column_name_is_a_parse_error_at_the_repeat() {
-        let text = b"time_s,temp_c,x,y,z,x\n0,25,1,2,3,4\n0.05,25,1,2,3,4\n";
-        match read(text) {
-            Err(Error::Parse {
-                line,
-                column,
-                reason,
-                ..
-            }) => {
-                assert_eq!((line, column), (1, 6), "{reason}");
-                assert!(reason.contains("'x' appears twice"), "{reason}");
-            }
-            other => panic!("expected a parse error, got {other:?}"),
-        }
-    }
-
-    #[test]
-    fn distinct_names_read_as_before() {
-        let text = b"time_s,temp_c,x,y,z,supply_v\n0,25,1,2,3,4\n0.05,25,1,2,3,4\n";
-        assert!(read(text).is_ok());
     }
 }

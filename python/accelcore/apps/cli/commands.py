@@ -31,7 +31,13 @@ from accelcore.apps.cli.documents import json_document, require_folder, write_js
 from accelcore.constants import DEFAULT_COLUMNS as _DEFAULT_COLUMNS
 from accelcore.constants import DELIMITERS as _DELIMITERS
 from accelcore.constants import TIME_UNITS as _TIME_UNITS
-from accelcore.errors import AccelcoreError, AccelcoreIOError, ParseError, TemperatureRangeWarning
+from accelcore.errors import (
+    AccelcoreError,
+    AccelcoreIOError,
+    OutputConflictError,
+    ParseError,
+    TemperatureRangeWarning,
+)
 from accelcore.files import atomic_open, check_outputs
 from accelcore.input.format import SessionFormat
 from accelcore.input.quality import check_session
@@ -318,12 +324,17 @@ def cmd_bulk(args: argparse.Namespace, out: TextIO) -> int:
 
 def _guard_bulk(archive: Path, output: Path) -> None:
     """Refuse a bulk output folder that is the archive or a session folder."""
-    check_outputs([archive], [output])
-    if (output / "session.toml").is_file():
-        raise UsageError(
-            f"output {output} is a session folder (it holds session.toml); bulk writes "
-            "its results elsewhere"
+    same = output.resolve() == archive.resolve()
+    if not same and output.exists() and archive.exists():
+        same = output.samefile(archive)
+    if same or (output / "session.toml").is_file():
+        what = "the archive" if same else "a session folder (it holds session.toml)"
+        err = OutputConflictError(
+            f"output {output} is {what}; bulk would write its results among the "
+            f"sessions of {archive}: choose another output folder"
         )
+        err.output, err.input = str(output), str(archive)
+        raise err
 
 
 def cmd_report(args: argparse.Namespace, out: TextIO) -> int:
