@@ -23,12 +23,13 @@ import json
 import math
 import os
 import shutil
+import subprocess
 import sys
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 import pandas as pd
@@ -44,7 +45,13 @@ from accelcore.errors import OutputConflictError
 from accelcore.files import check_outputs
 from accelcore.input.format import gravity_of
 
-SHORT = {"duration_h": 0.05, "soak_min": 0.5}  # 3600 rows per run at 20 Hz
+
+class Short(TypedDict):
+    duration_h: float
+    soak_min: float
+
+
+SHORT: Short = {"duration_h": 0.05, "soak_min": 0.5}  # 3600 rows per run at 20 Hz
 
 
 # --------------------------------------------------------------------------- helpers
@@ -460,6 +467,30 @@ def test_min_count_above_the_factor_is_a_parameter_error(S: Path) -> None:
     with pytest.raises(accelcore.ParameterError, match="min_count") as info:
         accelcore.load_session(S, min_count=11, cache=False)
     assert str(S) not in str(info.value)
+
+
+# ------------------------------------------------------------------------ 4. bulk
+def test_bulk_jobs_are_capped_by_the_sessions_and_the_cores() -> None:
+    from accelcore.apps.bulk import worker_count
+
+    cores = os.cpu_count() or 1
+    assert worker_count(1000, 4) == min(4, cores)
+    assert worker_count(None, 1) == 1
+    assert worker_count(3, 0) == 1
+    assert worker_count(1, 50) == 1
+
+
+def test_a_bulk_worker_ends_when_its_parent_is_gone() -> None:
+    """A process whose recorded parent is not its parent exits with status 1 (not 0)."""
+    code = (
+        "import os, time\n"
+        "from accelcore.apps.bulk import watch_parent\n"
+        "watch_parent(os.getppid() + 1_000_000, interval_s=0.01)\n"
+        "time.sleep(60)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.run([sys.executable, "-c", code], env=env, check=False)
+    assert proc.returncode == 1
 
 
 # ----------------------------------------------------- cases that already were right

@@ -509,8 +509,14 @@ def calibrate(
     Raises
     ------
     accelcore.InsufficientDataError
-        No data in the window, too few bins, or nothing identifiable; the
-        message says what data would fix it.
+        No data in the window, too few bins, fewer samples than terms, or
+        nothing identifiable; the message says what data would fix it.
+    accelcore.ParameterError
+        ``t_ref_c`` not finite, ``window_c`` reversed or not finite,
+        ``bin_width_c`` not positive.
+    accelcore.SessionFormatError
+        The runs contradict their orientation labels, the units or the rate
+        (:meth:`Session.check_orientations`).
     """
     if method not in ("joint", "paper"):
         raise ParameterError(f"method must be 'joint' or 'paper', got {method!r}")
