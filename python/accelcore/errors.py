@@ -18,6 +18,7 @@ __all__ = [
     "IncompatibleError",
     "InsufficientDataError",
     "NonFiniteError",
+    "OutputConflictError",
     "ParameterError",
     "ParseError",
     "SessionFormatError",
@@ -85,6 +86,13 @@ class SessionFormatError(AccelcoreError, ValueError):
 
 class CalibrationFileError(AccelcoreError, ValueError):
     """A calibration file is corrupted, truncated, of another version or another sensor."""
+
+
+class OutputConflictError(AccelcoreError, ValueError):
+    """An output would overwrite one of the inputs (attributes ``output``, ``input``)."""
+
+    output: str
+    input: str
 
 
 class AccelcoreIOError(AccelcoreError, OSError):

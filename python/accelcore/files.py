@@ -2,9 +2,10 @@
 
 :func:`atomic_write` writes a whole content at once; :func:`atomic_open` is the
 same rule for an output written piece by piece (a log of any size compensated
-in chunks).
+in chunks). :func:`check_outputs` refuses, before anything is read, an output
+that is, or links to, one of a command's inputs.
 
-Foundation: imports nothing of accelcore.
+Foundation: imports only :mod:`accelcore.errors`.
 """
 
 from __future__ import annotations
@@ -12,11 +13,96 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import BinaryIO
 
-__all__ = ["atomic_open", "atomic_write"]
+from accelcore.errors import AccelcoreIOError, OutputConflictError
+
+__all__ = ["atomic_open", "atomic_write", "check_outputs"]
+
+_PathLike = str | os.PathLike[str]
+
+
+def _identity(path: Path) -> tuple[int, int] | None:
+    """(device, inode) of what ``path`` names after following links, None if nothing."""
+    try:
+        st = path.stat()
+    except (OSError, ValueError):
+        return None
+    return (st.st_dev, st.st_ino)
+
+
+def _protected(inputs: Iterable[_PathLike]) -> list[tuple[Path, Path, tuple[int, int] | None]]:
+    """(path as given, resolved path, identity) of every input; nothing is opened."""
+    return [(Path(p), Path(p).resolve(), _identity(Path(p))) for p in inputs]
+
+
+def check_outputs(
+    inputs: Iterable[_PathLike],
+    outputs: Iterable[_PathLike | None],
+) -> None:
+    """Refuse any output that is, or links to, an input, or whose folder cannot be written.
+
+    Call it before reading anything: then an output can never destroy an input,
+    whatever the command finds later. An output aliases an input when it names
+    the same file after following symbolic links (same device and inode, which
+    also catches hard links), or resolves to the same path (a link not yet
+    pointing anywhere). A session folder is passed as its ``session.toml`` and
+    log files (:meth:`accelcore.input.format.SessionFormat.input_files`), so a
+    new file written next to them is allowed.
+
+    Parameters
+    ----------
+    inputs : iterable of path
+        Files and folders the command reads.
+    outputs : iterable of path or None
+        Files the command would write; None and ``"-"`` (standard output) are
+        skipped.
+
+    Raises
+    ------
+    accelcore.errors.OutputConflictError
+        An output aliases an input; ``.output`` and ``.input`` name both.
+    accelcore.AccelcoreIOError
+        An output's folder exists but is not a folder or cannot be written
+        (``.path`` is the output).
+    """
+    protected = _protected(inputs)
+    for given in outputs:
+        if given is None or str(given) == "-":
+            continue
+        out = Path(given)
+        ident = _identity(out)
+        resolved = out.resolve()
+        for shown, res, in_ident in protected:
+            same = (ident is not None and ident == in_ident) or resolved == res
+            if same:
+                kind = "input folder" if shown.is_dir() else "input"
+                err = OutputConflictError(
+                    f"output {out} would overwrite the {kind} {shown}; choose another output path"
+                )
+                err.output, err.input = str(out), str(shown)
+                raise err
+        _check_writable(out)
+
+
+def _check_writable(out: Path) -> None:
+    """Refuse an output whose nearest existing folder is not a folder we may write into."""
+    parent = out.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    reason = None
+    if out.is_dir():
+        reason = "is a folder"
+    elif not parent.is_dir():
+        reason = f"{parent} is not a folder"
+    elif not os.access(parent, os.W_OK | os.X_OK):
+        reason = f"folder {parent} is not writable"
+    if reason is not None:
+        err = AccelcoreIOError(f"{out}: cannot write the output: {reason}")
+        err.path = str(out)
+        raise err
 
 
 @contextlib.contextmanager

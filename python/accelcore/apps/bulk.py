@@ -32,6 +32,7 @@ import json
 import math
 import os
 import sys
+import threading
 import time
 import traceback
 from collections.abc import Callable, Sequence
@@ -64,6 +65,8 @@ __all__ = [
     "find_sessions",
     "process_session",
     "read_run_split",
+    "watch_parent",
+    "worker_count",
 ]
 
 BULK_SCHEMA = "accelcore-bulk/1"
@@ -325,6 +328,49 @@ def _write_tables(out: Path, fleet: pd.DataFrame, failures: pd.DataFrame) -> Non
     atomic_write(out / "fleet.parquet", sink.getvalue().to_pybytes())
 
 
+def worker_count(jobs: int | None, n_sessions: int) -> int:
+    """Worker processes to start: ``jobs`` (default all cores), capped by the sessions and cores.
+
+    Parameters
+    ----------
+    jobs : int or None
+        Requested workers (``--jobs``).
+    n_sessions : int
+        Sessions to process.
+
+    Returns
+    -------
+    int
+        At least 1; never more than the sessions or the cores.
+    """
+    cores = os.cpu_count() or 1
+    wanted = cores if jobs is None else jobs
+    return max(1, min(wanted, n_sessions, cores))
+
+
+def watch_parent(parent_pid: int, interval_s: float = 1.0) -> None:
+    """End this worker process when its parent is gone (a ``kill -9`` leaves no one to stop it).
+
+    Starts a daemon thread that checks every ``interval_s`` whether the parent
+    process is still ``parent_pid``; once it is not (the worker was adopted by
+    another process), the worker exits at once with status 1.
+
+    Parameters
+    ----------
+    parent_pid : int
+        Process id of the parent that started this worker.
+    interval_s : float, default 1.0
+        Seconds between checks.
+    """
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(interval_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="accelcore-watch-parent", daemon=True).start()
+
+
 def _run_local(
     archive: Path,
     sessions: Sequence[str],
@@ -342,7 +388,9 @@ def _run_local(
             on_done(o)
             outcomes.append(o)
         return outcomes
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
+    with ProcessPoolExecutor(
+        max_workers=jobs, initializer=watch_parent, initargs=(os.getpid(),)
+    ) as pool:
         futures: list[Future[SessionOutcome]] = [
             pool.submit(
                 process_session, archive, rel, out, diagnose=diagnose, force=force, cache=cache
@@ -414,7 +462,9 @@ def bulk(
     out : str or Path
         Output folder (created).
     jobs : int, optional
-        Worker processes; default: all cores. 1 runs in this process.
+        Worker processes; default: all cores. Capped by the sessions to do and
+        the cores (:func:`worker_count`); 1 runs in this process. Workers end
+        when this process dies (:func:`watch_parent`).
     client : dask.distributed.Client, optional
         Run sessions as tasks on this Dask cluster instead.
     scheduler : str, optional
@@ -452,7 +502,7 @@ def bulk(
                 client, archive_p, sessions, out_p, diagnose, force, cache, bar.update
             )
         else:
-            n_jobs = jobs if jobs is not None else (os.cpu_count() or 1)
+            n_jobs = worker_count(jobs, len(sessions))
             outcomes = _run_local(
                 archive_p, sessions, out_p, n_jobs, diagnose, force, cache, bar.update
             )

@@ -184,6 +184,14 @@ def fit_axis(
     names = [f"{axis}:{_public_name(t, axis)}" for t in terms]
     # Drop all-zero columns first (e.g. the sensitivity of an axis that never saw gravity).
     col_norm = np.sqrt((weight[:, None] * design**2).sum(axis=0))
+    n_used = int(np.count_nonzero(weight > 0))
+    for j, span, span_all in _thin_temperature_terms(axis, terms, data, parts, weight):
+        estimated[j] = False
+        notes.append(
+            f"{axis}: {_public_name(terms[j], axis)} not identified: the samples that carry it "
+            f"span {span:.3g} °C of the {span_all:.3g} °C fitted; held at 0 (log the "
+            "orientations of this axis over the whole sweep)"
+        )
     while True:
         for j in range(p):
             if estimated[j] and col_norm[j] == 0.0:
@@ -191,6 +199,11 @@ def fit_axis(
         cols = np.flatnonzero(estimated)
         if cols.size == 0:
             raise InsufficientDataError(f"axis {axis}: no term of the model is identified")
+        if n_used <= cols.size:
+            raise InsufficientDataError(
+                f"axis {axis}: {n_used} decimated sample(s) for {cols.size} model terms; a fit "
+                "needs more samples than terms (log longer sweeps, or check rate_hz)"
+            )
         y = response - design[:, ~estimated] @ fixed[~estimated]
         lsq = core.LeastSquares(int(cols.size), column_names=[names[j] for j in cols])
         lsq.push(np.ascontiguousarray(design[:, cols]), y, weight)
@@ -249,6 +262,43 @@ def fit_axis(
         axis, tuple(terms), coefficients, covariance, estimated, int(response.shape[0]), rms
     )
     return model, fixed_names, notes
+
+
+#: A temperature term is identified only by samples spread over at least this
+#: fraction of the fitted temperature span; fitted on less, it extrapolates a
+#: slope from a few degrees over the whole range.
+MIN_SPAN_FRACTION = 0.25
+
+
+def _thin_temperature_terms(
+    axis: str,
+    terms: Sequence[Term],
+    data: Stacked,
+    parts: Sequence[int] | range,
+    weight: NDArray[np.float64],
+) -> list[tuple[int, float, float]]:
+    """Temperature terms whose carrying samples span too little temperature: (index, spans)."""
+    temps = np.concatenate([data.features[i].temperature_c for i in parts])
+    grav = np.concatenate(
+        [np.broadcast_to(data.gravity[i], (len(data.features[i]), 3)) for i in parts]
+    )
+    used = weight > 0
+    if not used.any():
+        return []
+    span_all = float(np.ptp(temps[used]))
+    thin = []
+    for j, t in enumerate(terms):
+        if not t.basis.temperature_order:
+            continue
+        rows = used
+        if t.kind == "gain":
+            rows = used & (grav[:, AXES.index(t.source or axis)] != 0)
+        if not rows.any():
+            continue  # the term's column is zero: dropped as such by the fit
+        span = float(np.ptp(temps[rows]))
+        if span < MIN_SPAN_FRACTION * span_all:
+            thin.append((j, span, span_all))
+    return thin
 
 
 def _public_name(term: Term, axis: str) -> str:
@@ -394,6 +444,37 @@ def _fit_paper(
     return axes, not_identified, notes, (t_lo, t_hi)
 
 
+def _parameter(name: str, text: str) -> ParameterError:
+    err = ParameterError(f"{name} {text}")
+    err.parameter = name
+    return err
+
+
+def _finite(value: object) -> bool:
+    return (
+        isinstance(value, (int, float, np.integer, np.floating))
+        and not isinstance(value, bool)
+        and math.isfinite(float(value))
+    )
+
+
+def _check_options(
+    t_ref_c: object, window_c: tuple[float, float] | None, bin_width_c: object
+) -> None:
+    """Argument errors before any data is touched, named after the argument."""
+    if not _finite(t_ref_c):
+        raise _parameter("t_ref_c", f"must be a finite temperature in °C, got {t_ref_c!r}")
+    if window_c is not None:
+        if len(window_c) != 2 or not all(_finite(v) for v in window_c):
+            raise _parameter("window_c", f"must be two finite temperatures, got {window_c!r}")
+        if not window_c[0] < window_c[1]:
+            raise _parameter(
+                "window_c", f"must be (low, high) with low < high, got {tuple(window_c)!r}"
+            )
+    if not _finite(bin_width_c) or not float(bin_width_c) > 0:  # type: ignore[arg-type]
+        raise _parameter("bin_width_c", f"must be a positive number, got {bin_width_c!r}")
+
+
 def calibrate(
     session: Session,
     method: Literal["joint", "paper"] = "joint",
@@ -433,11 +514,18 @@ def calibrate(
     Raises
     ------
     accelcore.InsufficientDataError
-        No data in the window, too few bins, or nothing identifiable; the
-        message says what data would fix it.
+        No data in the window, too few bins, fewer samples than terms, or
+        nothing identifiable; the message says what data would fix it.
+    accelcore.ParameterError
+        ``t_ref_c`` not finite, ``window_c`` reversed or not finite,
+        ``bin_width_c`` not positive.
+    accelcore.SessionFormatError
+        The runs contradict their orientation labels, the units or the rate
+        (:meth:`Session.check_orientations`).
     """
     if method not in ("joint", "paper"):
         raise ParameterError(f"method must be 'joint' or 'paper', got {method!r}")
+    _check_options(t_ref_c, window_c, bin_width_c)
     session.check_orientations()
     options: dict[str, Any] = {
         "method": method,

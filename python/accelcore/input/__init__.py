@@ -3,8 +3,11 @@
 Holds the session format (:mod:`.format`, the one reader of ``session.toml``), the
 sessions and the Rust CSV reader (:mod:`.session`), the other readers (:mod:`.readers`:
 single-log, Parquet and TDMS files), the persistent run cache (:mod:`.cache`, its
-entry file in :mod:`.cache_entry`) and the data-quality screening of runs
-(:mod:`.quality`). Run statistics come from the core's ``RunTally`` everywhere.
+entry file in :mod:`.cache_entry`), the data-quality screening of runs
+(:mod:`.quality`), the checks of in-memory runs (:mod:`.frames`) and of header
+names (:mod:`.headers`), and the consistency of a session's labels, units and
+rate with its data, checked before any fit (:mod:`.consistency`). Run
+statistics come from the core's ``RunTally`` everywhere.
 Everything downstream receives a :class:`~accelcore.input.session.Session`.
 
 May import: the foundation (:mod:`accelcore.errors`, :mod:`accelcore.core`, the Rust

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import stat
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -33,7 +34,14 @@ from accelcore.constants import (
 )
 from accelcore.errors import AccelcoreIOError, SessionFormatError
 
-__all__ = ["TOML_NAME", "RunSpec", "SessionFormat", "check_units", "gravity_of"]
+__all__ = [
+    "TOML_NAME",
+    "RunSpec",
+    "SessionFormat",
+    "check_distinct_columns",
+    "check_units",
+    "gravity_of",
+]
 
 #: Name of the settings file of a session folder.
 TOML_NAME = "session.toml"
@@ -213,7 +221,8 @@ class SessionFormat:
             )
         data = toml_path.read_bytes()
         try:
-            meta = tomllib.loads(data.decode("utf-8"))
+            # A byte-order mark (some Windows editors write one) is not TOML: skip it.
+            meta = tomllib.loads(data.decode("utf-8-sig"))
         except tomllib.TOMLDecodeError as exc:
             raise SessionFormatError(f"{toml_path}: not valid TOML: {exc}") from exc
         except UnicodeDecodeError as exc:
@@ -224,6 +233,30 @@ class SessionFormat:
             sha256=hashlib.sha256(data).hexdigest(),
             check_files=check_files,
         )
+
+    @staticmethod
+    def input_files(path: str | Path) -> tuple[Path, ...]:
+        """Return the files a command reads from a session folder (for output checks).
+
+        ``session.toml`` and, when it can be parsed, every run file it names
+        (existing or not). A ``session.toml`` that cannot be parsed gives only
+        itself: reading the session fails later, before anything is written.
+
+        Parameters
+        ----------
+        path : str or Path
+            The session folder.
+
+        Returns
+        -------
+        tuple of pathlib.Path
+        """
+        folder = Path(path)
+        try:
+            fmt = SessionFormat.read(folder, check_files=False)
+        except (SessionFormatError, AccelcoreIOError, OSError):
+            return (folder / TOML_NAME,)
+        return (fmt.toml_path, *fmt.run_files)
 
     @classmethod
     def from_mapping(
@@ -319,14 +352,40 @@ def _columns(given: object, where: str) -> dict[str, str]:
         raise SessionFormatError(
             f"{where}: unknown key(s) in [columns]: {', '.join(sorted(unknown))}"
         )
+    check_distinct_columns(columns, where)
     return columns
+
+
+def check_distinct_columns(columns: Mapping[str, str], where: str) -> None:
+    """Refuse a column mapping that gives one log column two roles.
+
+    Parameters
+    ----------
+    columns : mapping of str to str
+        Log column of each role (``time``, ``temperature``, ``x``, ``y``, ``z``).
+    where : str
+        What the message names (a file, or an argument).
+
+    Raises
+    ------
+    accelcore.SessionFormatError
+        Two roles name the same column.
+    """
+    seen: dict[str, str] = {}
+    for role, name in columns.items():
+        if name in seen:
+            raise SessionFormatError(
+                f"{where}: [columns] maps both {seen[name]} and {role} to the log column "
+                f"{name!r}; each role needs its own column"
+            )
+        seen[name] = role
 
 
 def _runs(tables: object, folder: Path, where: str, *, check_files: bool) -> tuple[RunSpec, ...]:
     """Check the ``[[run]]`` tables, in order."""
     if not isinstance(tables, list) or not tables:
         raise SessionFormatError(f"{where}: no [[run]] table; a session needs at least one run")
-    specs = []
+    specs: list[RunSpec] = []
     for i, table in enumerate(tables, start=1):
         if not isinstance(table, dict):
             raise SessionFormatError(f"{where}: [[run]] #{i} must be a table")
@@ -338,7 +397,50 @@ def _runs(tables: object, folder: Path, where: str, *, check_files: bool) -> tup
         except SessionFormatError as exc:
             raise SessionFormatError(f"{where}: [[run]] #{i}: {exc}") from None
         file = folder / str(table["file"])
-        if check_files and not file.is_file():
-            raise AccelcoreIOError(f"{file}: run file does not exist ({where}, [[run]] #{i})")
+        if check_files:
+            _check_run_file(file, f"{where}, [[run]] #{i}")
+        earlier = next((s for s in specs if _same_file(s.path, file)), None)
+        if earlier is not None:
+            raise SessionFormatError(
+                f"{where}: [[run]] #{i} reads {table['file']!r}, the same file as "
+                f"[[run]] #{specs.index(earlier) + 1} ({earlier.file!r}); "
+                "each run needs its own log"
+            )
         specs.append(RunSpec(str(table["file"]), file, str(table["orientation"]).strip().upper()))
     return tuple(specs)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Tell whether two paths name one file (after links; hard links too)."""
+    if a.resolve() == b.resolve():
+        return True
+    try:
+        return a.samefile(b)
+    except OSError:
+        return False
+
+
+def _check_run_file(file: Path, where: str) -> None:
+    """Refuse a run file that is missing or not a regular file (a folder, FIFO, device)."""
+    try:
+        mode = file.stat().st_mode
+    except FileNotFoundError:
+        reason = "run file does not exist"
+    except OSError as exc:
+        reason = f"run file cannot be read ({exc.strerror})"
+    else:
+        if stat.S_ISREG(mode):
+            return
+        kind = (
+            "a folder"
+            if stat.S_ISDIR(mode)
+            else "a FIFO (named pipe)"
+            if stat.S_ISFIFO(mode)
+            else "a device"
+            if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+            else "not a regular file"
+        )
+        reason = f"run file is {kind}, not a log file"
+    err = AccelcoreIOError(f"{file}: {reason} ({where})")
+    err.path = str(file)
+    raise err

@@ -23,10 +23,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from accelcore import core
 from accelcore._accelcore import RawStats, RunTally, read_run
-from accelcore.constants import AXES, DEFAULT_COLUMNS, ORIENTATIONS, SESSION_FORMAT
-from accelcore.errors import SessionFormatError
+from accelcore.constants import AXES, ORIENTATIONS, SESSION_FORMAT
+from accelcore.errors import InsufficientDataError, ParameterError
 from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
+from accelcore.input.consistency import check_labels, check_rate
 from accelcore.input.format import SessionFormat, check_units, gravity_of
+from accelcore.input.frames import run_table
+from accelcore.input.headers import check_log_header
 
 __all__ = [
     "AXES",
@@ -212,31 +215,33 @@ class Session:
         return tuple(k for k in self.runs[0].extras if k in common)
 
     def check_orientations(self) -> None:
-        """Check that each run's output agrees with its declared orientation.
+        """Check that the runs agree with their labels, units and rate before any fit.
 
-        For every axis logged both ways up, the mean output of the ``+`` runs must
-        exceed that of the ``-`` runs (a positive sensitivity). Swapped files
-        would otherwise give a silently negative sensitivity.
+        Every pair of runs is compared, not only the ``+`` and ``-`` runs of one
+        axis: per axis, each run's median output must sit where its labelled
+        gravity puts it on one straight line through all runs
+        (:func:`accelcore.input.consistency.check_labels`), the slope of that line
+        must match the declared ``units`` (and the datasheet's sensitivity when
+        the sensor is known), and no decimated block may hold more raw samples
+        than the decimation factor allows at ``rate_hz``
+        (:func:`accelcore.input.consistency.check_rate`).
 
         Raises
         ------
         accelcore.SessionFormatError
-            Naming the runs that look swapped.
+            Naming the runs whose labels do not match the gravity they saw, the
+            units that contradict the data or the datasheet, or the rate that
+            contradicts the time stamps.
+
+        Warns
+        -----
+        accelcore.DataQualityWarning
+            The scale of ``V`` or ``LSB`` data is far from the datasheet's (a
+            range setting or supply the datasheet does not cover).
         """
-        for a, axis in enumerate(AXES):
-            plus = [r for r in self.runs if r.gravity_g[a] > 0 and len(r)]
-            minus = [r for r in self.runs if r.gravity_g[a] < 0 and len(r)]
-            if not plus or not minus:
-                continue
-            mean_plus = float(np.mean([np.median(r.output[:, a]) for r in plus]))
-            mean_minus = float(np.mean([np.median(r.output[:, a]) for r in minus]))
-            if mean_plus <= mean_minus:
-                names = ", ".join(f"{r.label} ({r.orientation})" for r in plus + minus)
-                raise SessionFormatError(
-                    f"{self.path or 'session'}: the {axis} output is lower with {axis} up "
-                    f"({mean_plus:.6g}) than with {axis} down ({mean_minus:.6g}): runs {names} "
-                    "look swapped (their orientation labels do not match the gravity they saw)"
-                )
+        where = self.path or "session"
+        check_rate(self.runs, self.rate_hz, self.decimation_factor, where)
+        check_labels(self.runs, self.units, self.sensor, where)
 
     def file_hashes(self) -> dict[str, str]:
         """SHA-256 of ``session.toml`` and every run file, for provenance.
@@ -281,37 +286,32 @@ class Session:
         Session
         """
         check_units(units, "units")
-        names = {**DEFAULT_COLUMNS, **(columns or {})}
+        _check_read_options(decimation_factor, 1, rate_hz)
+        runs = list(runs)
+        if not runs:
+            raise InsufficientDataError("from_arrays: no runs given; a session needs at least one")
         built = []
-        for orientation, data in runs:
-            gravity = gravity_of(orientation)
-            table = {str(k): np.asarray(data[k], dtype=np.float64) for k in data}
-            missing = [
-                names[k] for k in ("time", "temperature", "x", "y", "z") if names[k] not in table
-            ]
-            if missing:
-                raise SessionFormatError(
-                    f"run {orientation}: missing column(s) {', '.join(missing)}; "
-                    f"found {', '.join(table)}"
-                )
-            required = [names[k] for k in ("x", "y", "z")]
-            extra_names = [
-                k
-                for k in table
-                if k not in required and k not in (names["time"], names["temperature"])
-            ]
-            channels = np.column_stack([table[k] for k in required + extra_names])
-            time_s = table[names["time"]]
+        for i, item in enumerate(runs, start=1):
+            if not isinstance(item, tuple) or len(item) != 2:
+                raise ParameterError(f"run {i}: expected an (orientation, data) pair")
+            orientation, data = item
+            gravity = gravity_of(str(orientation))
+            label = f"run {i} ({str(orientation).strip().upper()})"
+            table, extra_names = run_table(data, label, columns)
+            channels = np.column_stack(table[2:])
+            time_s, temp_c = table[0], table[1]
             dec = core.Decimator(
                 factor=decimation_factor, rate_hz=rate_hz, n_channels=channels.shape[1]
             )
-            dec.push(time_s, table[names["temperature"]], channels)
+            dec.push(time_s, temp_c, channels)
             blocks = dec.finish()
             tally = RunTally(n_channels=channels.shape[1], rate_hz=rate_hz)
-            tally.push(time_s, table[names["temperature"]], channels)
+            tally.push(time_s, temp_c, channels)
             stats = RunStats.from_raw(tally.finish())
             built.append(
-                _make_run(orientation.strip().upper(), gravity, blocks, extra_names, None, stats)
+                _make_run(
+                    str(orientation).strip().upper(), gravity, blocks, extra_names, None, stats
+                )
             )
         return cls(
             runs=tuple(built),
@@ -322,6 +322,37 @@ class Session:
             path=None,
             decimation_factor=decimation_factor,
         )
+
+
+def _check_read_options(
+    decimation_factor: object, min_count: object, rate_hz: object = 1.0
+) -> None:
+    """Refuse bad arguments as the caller's error, never blamed on a file."""
+    if isinstance(decimation_factor, bool) or not isinstance(decimation_factor, int):
+        raise _parameter("decimation_factor", f"must be an integer, got {decimation_factor!r}")
+    if decimation_factor < 1:
+        raise _parameter("decimation_factor", f"must be >= 1, got {decimation_factor}")
+    if isinstance(min_count, bool) or not isinstance(min_count, int):
+        raise _parameter("min_count", f"must be an integer, got {min_count!r}")
+    if not 1 <= min_count <= decimation_factor:
+        raise _parameter(
+            "min_count",
+            f"must lie in 1…decimation_factor ({decimation_factor}), got {min_count}: a block "
+            f"never holds more than {decimation_factor} samples",
+        )
+    if (
+        isinstance(rate_hz, bool)
+        or not isinstance(rate_hz, (int, float))
+        or not math.isfinite(rate_hz)
+        or rate_hz <= 0
+    ):
+        raise _parameter("rate_hz", f"must be a positive number, got {rate_hz!r}")
+
+
+def _parameter(name: str, text: str) -> ParameterError:
+    err = ParameterError(f"{name} {text}")
+    err.parameter = name
+    return err
 
 
 class _Blocks(Protocol):
@@ -429,6 +460,7 @@ def load_session(
     2 s before they are read are not cached. ``session.toml`` is always read
     and hashed.
     """
+    _check_read_options(decimation_factor, min_count)
     fmt = SessionFormat.read(path)
     params: _ReadParams = {
         "delimiter": fmt.separator,
@@ -443,6 +475,8 @@ def load_session(
     }
 
     def read(file: Path) -> tuple[RunRecord, str]:
+        # One line, before the Rust reader: it would let the first of two same-named columns win.
+        check_log_header(file, fmt.separator)
         data = read_run(str(file), sha256=True, **params)
         assert data.sha256 is not None  # asked for
         return RunRecord.from_run_data(data), data.sha256

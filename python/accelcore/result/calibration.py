@@ -31,11 +31,12 @@ from numpy.typing import ArrayLike, NDArray
 from accelcore import datasheets
 from accelcore.constants import STANDARD_GRAVITY
 from accelcore.errors import (
+    AccelcoreError,
     AccelcoreIOError,
     CalibrationFileError,
     InsufficientDataError,
 )
-from accelcore.files import atomic_write
+from accelcore.files import atomic_write, check_outputs
 from accelcore.model import AXES, Basis, TemperaturePower, Term
 from accelcore.result import datasheet
 from accelcore.result.compensator import Compensator
@@ -421,7 +422,17 @@ class Calibration:
         Floats are written with Python's shortest round-trip repr, so :meth:`load`
         gives back exactly the same numbers. A SHA-256 checksum of the body
         detects corruption.
+
+        Raises
+        ------
+        accelcore.errors.OutputConflictError
+            ``path`` is (or links to) one of the session files this calibration
+            was fitted on (:func:`accelcore.files.check_outputs`).
         """
+        folder = self.provenance.get("session_path")
+        files = self.provenance.get("files_sha256") or {}
+        if folder:
+            check_outputs([Path(folder) / name for name in files], [path])
         body = self.to_dict()
         text = json.dumps(body, sort_keys=True, allow_nan=True)
         doc = {"body": body, "sha256": hashlib.sha256(text.encode()).hexdigest()}
@@ -480,7 +491,7 @@ class Calibration:
                 f"{where}: calibration is for serial {body.get('serial')!r}, not {serial!r}"
             )
         try:
-            return cls(
+            cal = cls(
                 method=str(body["method"]),
                 units=str(body["units"]),
                 t_ref_c=float(body["t_ref_c"]),
@@ -500,3 +511,43 @@ class Calibration:
             )
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise CalibrationFileError(f"{where}: malformed calibration body: {exc!r}") from exc
+        _check_loaded(cal, where)
+        return cal
+
+
+def _check_loaded(cal: Calibration, where: str) -> None:
+    """Validate a loaded calibration whole, so that a bad file fails at load, not in use.
+
+    Every axis has a model; its coefficients are all finite (or all NaN: an axis
+    the method could not calibrate); a calibrated axis has a nonzero, finite
+    sensitivity; the terms combine into compensation matrices.
+    """
+    missing = [a for a in AXES if a not in cal.axes]
+    if missing:
+        raise CalibrationFileError(f"{where}: no model of axis {', '.join(missing)}")
+    for a, m in cal.axes.items():
+        c = m.coefficients
+        nan = np.isnan(c)
+        if nan.all():
+            continue
+        bad = [t.name for t, v in zip(m.terms, c, strict=True) if not math.isfinite(v)]
+        if bad:
+            raise CalibrationFileError(
+                f"{where}: axis {a}: non-finite coefficient(s) {', '.join(bad)}; the file is "
+                "corrupted"
+            )
+        gain = sum(
+            float(v)
+            for t, v in zip(m.terms, c, strict=True)
+            if t.kind == "gain" and (t.source or a) == a and t.basis == Basis.parse("1")
+        )
+        if gain == 0.0:
+            raise CalibrationFileError(
+                f"{where}: axis {a}: the sensitivity is 0, so no reading could be turned into "
+                "acceleration; the file is corrupted"
+            )
+    if all(not np.isnan(m.coefficients).all() for m in cal.axes.values()):
+        try:
+            cal._coefficient_matrices()
+        except (AccelcoreError, ValueError) as exc:
+            raise CalibrationFileError(f"{where}: the model cannot compensate: {exc}") from exc

@@ -10,11 +10,12 @@ Part of the applications room: may import every other room.
 from __future__ import annotations
 
 import argparse
+import csv
 import dataclasses
 import importlib
 import sys
 import warnings
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -30,8 +31,14 @@ from accelcore.apps.cli.documents import json_document, require_folder, write_js
 from accelcore.constants import DEFAULT_COLUMNS as _DEFAULT_COLUMNS
 from accelcore.constants import DELIMITERS as _DELIMITERS
 from accelcore.constants import TIME_UNITS as _TIME_UNITS
-from accelcore.errors import AccelcoreError, TemperatureRangeWarning
-from accelcore.files import atomic_open
+from accelcore.errors import (
+    AccelcoreError,
+    AccelcoreIOError,
+    OutputConflictError,
+    ParseError,
+    TemperatureRangeWarning,
+)
+from accelcore.files import atomic_open, check_outputs
 from accelcore.input.format import SessionFormat
 from accelcore.input.quality import check_session
 from accelcore.input.session import Session
@@ -65,6 +72,22 @@ class UsageError(Exception):
     """A usage problem found after parsing (exit status 2)."""
 
 
+def _guard(inputs: Iterable[str | Path], outputs: Iterable[str | Path | None]) -> None:
+    """Before reading anything: no output may alias an input, and every output's folder exists.
+
+    Raises :class:`accelcore.errors.OutputConflictError` (exit status 2) or an
+    :class:`accelcore.AccelcoreIOError` naming the output (exit status 1).
+    """
+    wanted = [o for o in outputs if o is not None and str(o) != "-"]
+    check_outputs(inputs, wanted)
+    for o in wanted:
+        folder = Path(o).parent
+        if not folder.is_dir():
+            err = AccelcoreIOError(f"{o}: cannot write the output: folder {folder} does not exist")
+            err.path = str(o)
+            raise err
+
+
 def _check_quality(session: Session) -> list[dict[str, Any]]:
     """Run the data-quality checks; each finding is also a warning printed on stderr."""
     return [dataclasses.asdict(issue) for issue in check_session(session, warn=True)]
@@ -72,6 +95,9 @@ def _check_quality(session: Session) -> list[dict[str, Any]]:
 
 def cmd_calibrate(args: argparse.Namespace, out: TextIO) -> int:
     """``accelcore calibrate``: summary, datasheet comparison, ``--save`` and ``--json``."""
+    if not args.window[0] < args.window[1]:
+        raise UsageError(f"--window LO HI needs LO < HI, got {args.window[0]:g} {args.window[1]:g}")
+    _guard(SessionFormat.input_files(args.session), [args.save, args.json])
     session = accelcore.load_session(args.session, cache=not args.no_cache)
     quality = _check_quality(session)
     cal = accelcore.calibrate(
@@ -142,6 +168,10 @@ def _compensate_chunks(
 
 def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
     """``accelcore compensate``: a raw log of any size into acceleration in g, in chunks."""
+    inputs: list[str | Path] = [args.calibration, args.input]
+    if args.session:
+        inputs += SessionFormat.input_files(args.session)
+    _guard(inputs, [args.output])
     fmt: dict[str, Any] = {"delimiter": ",", "time_unit": "s", "columns": {}}
     if args.session:
         fmt = _session_format(args.session)
@@ -157,6 +187,8 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
     if args.chunk_rows < 1:
         raise UsageError("--chunk-rows must be >= 1")
     names = {**_DEFAULT_COLUMNS, **fmt["columns"]}
+    if len(set(names.values())) < len(names):
+        raise UsageError(f"two columns share one name: {names}; each role needs its own column")
     cal = Calibration.load(args.calibration)
     extra_names = sorted(
         {t.basis.column for m in cal.axes.values() for t in m.terms if t.basis.column is not None}
@@ -200,7 +232,9 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
         except ValueError as exc:
             if isinstance(exc, AccelcoreError):
                 raise
-            raise CliDataError(f"{source}: {exc}") from exc
+            raise _bad_cell(source, _DELIMITERS[fmt["delimiter"]], needed) or CliDataError(
+                f"{source}: {exc}"
+            ) from exc
     print(f"compensated {n_rows} rows of {source} into {target} (columns x_g, y_g, z_g)", file=out)
     if n_nan:
         print(f"warning: {n_nan} rows had non-finite input and are NaN", file=sys.stderr)
@@ -216,9 +250,7 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
 
 def cmd_export(args: argparse.Namespace, out: TextIO) -> int:
     """``accelcore export``: a calibration file as PX4, ArduPilot or imucal parameters."""
-    same = Path(args.output).resolve() == Path(args.calibration).resolve()
-    if same or (Path(args.output).exists() and Path(args.output).samefile(args.calibration)):
-        raise UsageError(f"the output {args.output} is the input calibration file")
+    _guard([args.calibration], [args.output])
     cal = Calibration.load(args.calibration)
     result: exports.Px4Export | exports.ArduPilotExport | exports.ImucalExport
     if args.target == "px4":
@@ -234,6 +266,31 @@ def cmd_export(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def _bad_cell(source: Path, delimiter: str, needed: Sequence[str]) -> ParseError | None:
+    """Find the first cell of the needed columns that is not a number (line and column, 1-based).
+
+    Only called after the fast reader failed, so a clean log is read once.
+    """
+    with source.open(newline="", encoding="utf-8", errors="replace") as fh:
+        rows = csv.reader(fh, delimiter=delimiter)
+        header = next(rows, [])
+        wanted = [(i, name) for i, name in enumerate(header) if name in needed]
+        for line, row in enumerate(rows, start=2):
+            for i, name in wanted:
+                cell = row[i].strip() if i < len(row) else ""
+                if cell == "":
+                    continue
+                try:
+                    float(cell)
+                except ValueError:
+                    err = ParseError(
+                        f"{source}:{line}:{i + 1}: column {name!r}: {cell!r} is not a number"
+                    )
+                    err.path, err.line, err.column = str(source), line, i + 1
+                    return err
+    return None
+
+
 def cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
     """``accelcore diagnose``: calibrate, diagnose, print the table or write ``--json``."""
     # Looked up when the command runs, so an installation (or a test) without the
@@ -242,6 +299,7 @@ def cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
         diagnosis = importlib.import_module("accelcore.diagnosis")
     except ImportError as exc:
         raise UsageError(f"diagnosis is not available in this installation ({exc})") from exc
+    _guard(SessionFormat.input_files(args.session), [args.json])
     session = accelcore.load_session(args.session, cache=not args.no_cache)
     quality = _check_quality(session)
     result = diagnosis.diagnose(session)
@@ -261,6 +319,7 @@ def cmd_bulk(args: argparse.Namespace, out: TextIO) -> int:
     """``accelcore bulk``: every session under an archive; status 1 when any failed."""
     if args.jobs is not None and args.jobs < 1:
         raise UsageError("--jobs must be >= 1")
+    _guard_bulk(Path(args.archive), Path(args.output))
     result = bulk(
         args.archive,
         args.output,
@@ -283,6 +342,21 @@ def cmd_bulk(args: argparse.Namespace, out: TextIO) -> int:
     return 1 if n_failed else 0
 
 
+def _guard_bulk(archive: Path, output: Path) -> None:
+    """Refuse a bulk output folder that is the archive or a session folder."""
+    same = output.resolve() == archive.resolve()
+    if not same and output.exists() and archive.exists():
+        same = output.samefile(archive)
+    if same or (output / "session.toml").is_file():
+        what = "the archive" if same else "a session folder (it holds session.toml)"
+        err = OutputConflictError(
+            f"output {output} is {what}; bulk would write its results among the "
+            f"sessions of {archive}: choose another output folder"
+        )
+        err.output, err.input = str(output), str(archive)
+        raise err
+
+
 def cmd_report(args: argparse.Namespace, out: TextIO) -> int:
     """``accelcore report``: the HTML page of a session or of a bulk output."""
     try:
@@ -291,6 +365,12 @@ def cmd_report(args: argparse.Namespace, out: TextIO) -> int:
         raise UsageError(f"reports need matplotlib: pip install accelcore[plot] ({exc})") from exc
     matplotlib.use("Agg")  # files only, never a window
     src = Path(args.path)
+    page_file = Path(args.output or src) / "index.html"
+    if (src / "session.toml").is_file():
+        check_outputs(SessionFormat.input_files(src), [page_file])
+    else:
+        fleet = [src / n for n in ("fleet.csv", "fleet.parquet", "failures.csv")]
+        check_outputs(fleet, [page_file])
     try:
         if is_bulk_output(src):
             page = fleet_report(src, args.output)

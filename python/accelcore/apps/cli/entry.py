@@ -16,16 +16,22 @@ from typing import TextIO
 
 from accelcore.apps.cli.commands import CliDataError, UsageError, cmd_bench
 from accelcore.apps.cli.parser import build_parser
-from accelcore.errors import AccelcoreError
+from accelcore.errors import AccelcoreError, OutputConflictError
 
 __all__ = ["main"]
 
 
-def _one_line(exc: BaseException, path: str | None) -> str:
+def _one_line(exc: BaseException, path: str | None, named: Sequence[str] = ()) -> str:
+    """One line naming the file at fault: the error's own path, else the command's data path.
+
+    ``named`` are every path of the command; a message naming one of them (the
+    calibration file, an output) is not prefixed with the data path.
+    """
     text = " ".join(str(exc).split()) or type(exc).__name__
     if isinstance(exc, OSError) and not isinstance(exc, AccelcoreError) and exc.filename:
-        text = f"{exc.strerror or text}: {exc.filename}"
-    if path and path not in text:
+        # The OS named the file at fault (an output folder, say): never blame the input.
+        return f"{exc.filename}: {exc.strerror or text}"
+    if path and not getattr(exc, "path", None) and not any(p in text for p in (path, *named)):
         text = f"{path}: {text}"
     return text
 
@@ -67,6 +73,11 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None) -> 
             return int(exc.code) if isinstance(exc.code, int) else 2
         handler = ns.func
     path = getattr(ns, ns.data_path) if ns.data_path else None
+    named = [
+        str(v)
+        for k in ("calibration", "input", "output", "session", "path", "archive", "json", "save")
+        if (v := getattr(ns, k, None)) is not None and str(v) not in ("", "-")
+    ]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -76,11 +87,12 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None) -> 
                 devnull = os.open(os.devnull, os.O_WRONLY)
                 os.dup2(devnull, sys.stdout.fileno())
             status = 1
-        except UsageError as exc:
-            print(f"accelcore {ns.command}: error: {exc}", file=sys.stderr)
+        except (UsageError, OutputConflictError) as exc:
+            # An output that would overwrite an input is a usage error, found before any read.
+            print(f"accelcore {ns.command}: error: {' '.join(str(exc).split())}", file=sys.stderr)
             status = 2
         except (AccelcoreError, OSError, CliDataError) as exc:
-            print(f"accelcore {ns.command}: error: {_one_line(exc, path)}", file=sys.stderr)
+            print(f"accelcore {ns.command}: error: {_one_line(exc, path, named)}", file=sys.stderr)
             status = 1
         finally:
             _show_warnings(caught, ns.command)

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from accelcore.constants import DEFAULT_COLUMNS, ORIENTATIONS, TIME_UNITS
 from accelcore.errors import AccelcoreIOError, ParameterError, ParseError
+from accelcore.input.format import check_distinct_columns
 
 __all__ = ["CHUNK_ROWS"]
 
@@ -63,6 +64,7 @@ def _column_names(columns: Mapping[str, str] | None) -> dict[str, str]:
             f"columns: unknown role(s) {', '.join(sorted(unknown))}; "
             f"expected some of {', '.join(_ROLES)}"
         )
+    check_distinct_columns(names, "columns")
     return names
 
 

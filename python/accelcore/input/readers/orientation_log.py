@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from accelcore.constants import DELIMITERS
 from accelcore.errors import ParameterError
 from accelcore.input.format import check_units
+from accelcore.input.headers import check_unique_names, first_line_fields
 from accelcore.input.readers import common
 from accelcore.input.readers.common import (
     _ROLES,
@@ -150,6 +151,7 @@ def read_orientation_log(
     except UnicodeDecodeError as exc:
         raise _parse_error(file, 1, 1, f"not UTF-8 text: {exc}") from None
     with reader:
+        check_unique_names(file, first_line_fields(file, DELIMITERS[delimiter]), header_line=True)
         wanted = [names[r] for r in _ROLES] + [orientation_column]
         if any(w not in header for w in wanted):
             raise _missing_columns(file, header, wanted, header_line=True)

@@ -14,6 +14,7 @@ import numpy as np
 
 from accelcore.errors import ParameterError, SessionFormatError
 from accelcore.input.format import check_units, gravity_of
+from accelcore.input.headers import check_unique_names
 from accelcore.input.readers import common
 from accelcore.input.readers.common import (
     _ROLES,
@@ -122,6 +123,7 @@ def read_parquet(
         raise _parse_error(file, 1, 1, f"not a Parquet file: {exc}", where=None) from None
     schema = pf.schema_arrow
     header = list(schema.names)
+    check_unique_names(file, header, header_line=False)
     wanted = [names[r] for r in _ROLES] + ([orientation_column] if orientation_column else [])
     if any(w not in header for w in wanted):
         raise _missing_columns(file, header, wanted, header_line=False)

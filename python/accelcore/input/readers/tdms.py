@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from accelcore.errors import DataQualityWarning, ParameterError, SessionFormatError
 from accelcore.input.format import check_units, gravity_of
+from accelcore.input.headers import check_unique_names
 from accelcore.input.readers import common
 from accelcore.input.readers.common import (
     _check_file,
@@ -219,6 +220,7 @@ def _tdms_group(
 ) -> tuple[Run | None, float]:
     """Decimate one TDMS group into a run; also return the rate used."""
     where = f"{file}#{g.name}"
+    check_unique_names(where, [c.name for c in g.channels()], header_line=False)
     channels = {c.name: c for c in g.channels()}
     needed = [names[r] for r in ("temperature", "x", "y", "z")]
     if any(c not in channels for c in needed):
