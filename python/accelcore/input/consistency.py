@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,9 +32,7 @@ from numpy.typing import NDArray
 from accelcore import datasheets
 from accelcore.constants import AXES, STANDARD_GRAVITY
 from accelcore.errors import DataQualityWarning, SessionFormatError
-
-if TYPE_CHECKING:
-    from accelcore.input.session import Run
+from accelcore.input.run import Run
 
 __all__ = ["LABEL_TOLERANCE_G", "SCALE_TOLERANCE", "check_labels", "check_rate"]
 

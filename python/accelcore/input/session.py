@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from accelcore import core
-from accelcore._accelcore import RawStats, RunTally, read_run
+from accelcore._accelcore import RunTally, read_run
 from accelcore.constants import AXES, ORIENTATIONS, SESSION_FORMAT
 from accelcore.errors import InsufficientDataError, ParameterError
 from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
@@ -30,6 +30,7 @@ from accelcore.input.consistency import check_labels, check_rate
 from accelcore.input.format import SessionFormat, check_units, gravity_of
 from accelcore.input.frames import run_table
 from accelcore.input.headers import check_log_header
+from accelcore.input.run import Run, RunStats
 
 __all__ = [
     "AXES",
@@ -44,123 +45,6 @@ __all__ = [
 ]
 
 FORMAT = SESSION_FORMAT
-
-
-@dataclass(frozen=True)
-class RunStats:
-    """What the reader saw in one run's raw log (before decimation).
-
-    Attributes
-    ----------
-    n_rows : int
-        Data rows read.
-    n_skipped_nonfinite : int
-        Rows skipped because a value was NaN, infinite or empty.
-    n_truncated_rows : int
-        A last line cut off mid-write, dropped (0 or 1).
-    n_gaps : int
-        Intervals between rows longer than 1.5 nominal periods.
-    max_interval_s : float
-        Longest interval between rows, s.
-    duration_s : float
-        Time from the first to the last row, s.
-    channel_min, channel_max : ndarray
-        Raw range of each channel (x, y, z, then extras).
-    n_at_min, n_at_max : ndarray
-        Rows exactly at that minimum / maximum (many at one value: clipping).
-    """
-
-    n_rows: int
-    n_skipped_nonfinite: int = 0
-    n_truncated_rows: int = 0
-    n_gaps: int = 0
-    max_interval_s: float = 0.0
-    duration_s: float = 0.0
-    channel_min: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
-    channel_max: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
-    n_at_min: NDArray[np.uint64] = field(default_factory=lambda: np.zeros(0, dtype=np.uint64))
-    n_at_max: NDArray[np.uint64] = field(default_factory=lambda: np.zeros(0, dtype=np.uint64))
-
-    @classmethod
-    def from_raw(cls, raw: RawStats, *, n_truncated_rows: int = 0) -> RunStats:
-        """Build the statistics of a run from a :class:`~accelcore._accelcore.RunTally`'s result.
-
-        Parameters
-        ----------
-        raw : accelcore._accelcore.RawStats
-            What the tally counted.
-        n_truncated_rows : int, default 0
-            A last line cut off mid-write and dropped (0 or 1).
-
-        Returns
-        -------
-        RunStats
-        """
-        first, last = raw.first_time_s, raw.last_time_s
-        return cls(
-            n_rows=raw.n_rows,
-            n_skipped_nonfinite=raw.n_skipped_nonfinite,
-            n_truncated_rows=n_truncated_rows,
-            n_gaps=raw.n_gaps,
-            max_interval_s=raw.max_interval_s,
-            duration_s=last - first if math.isfinite(first) else 0.0,
-            channel_min=raw.channel_min,
-            channel_max=raw.channel_max,
-            n_at_min=raw.n_at_min,
-            n_at_max=raw.n_at_max,
-        )
-
-    @property
-    def mean_rate_hz(self) -> float:
-        """Average sample rate over the run, Hz (NaN for a single row)."""
-        if self.n_rows < 2 or self.duration_s <= 0:
-            return math.nan
-        return (self.n_rows - 1) / self.duration_s
-
-
-@dataclass(frozen=True)
-class Run:
-    """One temperature sweep in one orientation, decimated.
-
-    Attributes
-    ----------
-    orientation : str
-        ``OX+`` ... ``OZ-``.
-    gravity_g : ndarray, shape (3,)
-        Gravity on x, y, z in g implied by the orientation.
-    time_s : ndarray
-        Block mean time, s, from the run's own origin.
-    temperature_c : ndarray
-        Block mean logged temperature, °C.
-    output : ndarray, shape (n, 3)
-        Block mean raw output of x, y, z in session units.
-    count : ndarray
-        Raw samples averaged in each block.
-    extras : dict of str to ndarray
-        Block means of every extra logged column (e.g. ``supply_v``).
-    source : str or None
-        The log file, when read from disk.
-    stats : RunStats
-        What the reader saw in the raw log.
-    """
-
-    orientation: str
-    gravity_g: NDArray[np.float64]
-    time_s: NDArray[np.float64]
-    temperature_c: NDArray[np.float64]
-    output: NDArray[np.float64]
-    count: NDArray[np.int64]
-    extras: dict[str, NDArray[np.float64]]
-    source: str | None
-    stats: RunStats
-
-    def __len__(self) -> int:
-        return int(self.time_s.shape[0])
-
-    @property
-    def label(self) -> str:
-        """Short name: the file name, or the orientation for in-memory runs."""
-        return Path(self.source).name if self.source else self.orientation
 
 
 @dataclass(frozen=True)
