@@ -272,6 +272,27 @@ def test_a_duplicated_header_name_is_a_parse_error(S: Path) -> None:
     assert info.value.path.endswith("y_neg.csv")
 
 
+@pytest.mark.parametrize("split", [False, True])
+def test_the_rust_reader_itself_refuses_a_repeated_header_name(S: Path, split: bool) -> None:
+    """No pre-check in front: the reader (one pass or in pieces) names line 1 and the repeat."""
+    from accelcore._accelcore import read_run
+    from accelcore.apps.bulk import read_run_split
+
+    log = S / "z_pos.csv"
+    lines = log.read_text().splitlines()
+    lines[0] = lines[0].replace("temp_c", "temp_c,y", 1)
+    cells = [line.split(",") for line in lines[1:]]
+    lines[1:] = [",".join([c[0], c[1], "0.5", *c[2:]]) for c in cells]
+    log.write_text("\n".join(lines) + "\n")
+    with pytest.raises(accelcore.ParseError, match=r"'y' appears twice .*columns 3 and 5") as info:
+        if split:
+            read_run_split(log, pieces=3)
+        else:
+            read_run(str(log))
+    assert (info.value.line, info.value.column) == (1, 5)
+    assert info.value.path.endswith("z_pos.csv")
+
+
 def test_a_duplicated_header_name_in_an_orientation_log_is_a_parse_error(tmp_path: Path) -> None:
     log = tmp_path / "log.csv"
     log.write_text("time_s,temp_c,x,y,z,z,orientation\n0,25,1,2,3,4,OZ+\n0.05,25,1,2,3,4,OZ+\n")
