@@ -514,6 +514,61 @@ def test_a_bulk_worker_ends_when_its_parent_is_gone() -> None:
     assert proc.returncode == 1
 
 
+def test_the_bulk_fleet_table_flags_a_run_cut_short(S: Path, tmp_path: Path) -> None:
+    """The issue's case: a run cut to 6 % of its sweep calibrates, and its session is flagged."""
+    from accelcore.apps.bulk import FLEET_COLUMNS, bulk
+    from accelcore.outputs.report import fleet_report
+
+    archive = tmp_path / "archive"
+    shutil.copytree(S, archive / "clean")
+    shutil.copytree(S, archive / "cut")
+    log = archive / "cut" / "x_pos.csv"
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join(lines[: int(0.06 * len(lines))]) + "\n")
+    out = tmp_path / "out"
+    with untouched(archive), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = bulk(archive, out, jobs=1, progress=False, diagnose=False, cache=False)
+    assert result.ok
+    assert "warnings" in FLEET_COLUMNS
+    fleet = pd.read_csv(out / "fleet.csv", dtype=str, keep_default_na=False)
+    cells = dict(zip(fleet["session"], fleet["warnings"], strict=True))
+    assert cells["cut"].startswith("short run (x_pos.csv)"), cells["cut"]
+    assert "short run" not in cells["clean"]
+    assert "step (" in cells["clean"]  # this quick simulation has steps: said too
+    page = fleet_report(out, tmp_path / "page").read_text()
+    assert "session(s) with data-quality warnings" in page and "short run (x_pos.csv)" in page
+
+
+def test_the_warnings_cell_is_short_ordered_and_never_empty() -> None:
+    from accelcore.apps.fleet_rows import warnings_cell
+    from accelcore.input.quality import QualityIssue
+
+    assert warnings_cell([]) == "none"
+    issues = [
+        QualityIssue("outliers", "…", run="b.csv", channel="z"),
+        QualityIssue("outliers", "…", run="a.csv", channel="y"),
+        QualityIssue("outliers", "…", run="b.csv", channel="y"),
+        QualityIssue("temperature", "…"),
+        QualityIssue("short", "…", run="a.csv"),
+    ]
+    want = "short run (a.csv); sweep not covering the window; spikes left out (b.csv, a.csv)"
+    assert warnings_cell(issues) == want
+    assert warnings_cell(issues[::-1]) == want  # the order of the findings does not matter
+
+
+def test_a_run_cut_short_is_a_quality_finding(S: Path) -> None:
+    from accelcore.input.quality import check_session
+
+    log = S / "x_pos.csv"
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join(lines[: int(0.25 * len(lines))]) + "\n")
+    issues = check_session(accelcore.load_session(S, cache=False), warn=False)
+    short = [i for i in issues if i.kind == "short"]
+    assert [i.run for i in short] == ["x_pos.csv"]
+    assert "cut short" in short[0].message
+
+
 # ----------------------------------------------------- cases that already were right
 def test_invalid_toml_is_a_session_format_error(S: Path) -> None:
     (S / "session.toml").write_text("format = \n")

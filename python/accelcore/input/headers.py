@@ -69,4 +69,3 @@ def check_unique_names(path: str, names: Sequence[str], *, header_line: bool) ->
             err.path, err.line, err.column = path, 1, i + 1
             raise err
         seen[name] = i
-
