@@ -528,7 +528,7 @@ def test_the_bulk_fleet_table_flags_a_run_cut_short(S: Path, tmp_path: Path) -> 
     out = tmp_path / "out"
     with untouched(archive), warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        result = bulk(archive, out, jobs=1, progress=False, diagnose=False, cache=False)
+        result = bulk(archive, out, jobs=1, progress=False, cache=False)
     assert result.ok
     assert "warnings" in FLEET_COLUMNS
     fleet = pd.read_csv(out / "fleet.csv", dtype=str, keep_default_na=False)
@@ -538,6 +538,13 @@ def test_the_bulk_fleet_table_flags_a_run_cut_short(S: Path, tmp_path: Path) -> 
     assert "step (" in cells["clean"]  # this quick simulation has steps: said too
     page = fleet_report(out, tmp_path / "page").read_text()
     assert "session(s) with data-quality warnings" in page and "short run (x_pos.csv)" in page
+    # The diagnosis was told the findings: no thermal lag on the strength of the cut run.
+    diagnosis = json.loads((out / "cut" / "diagnosis.json").read_text())
+    assert any("'short' (x_pos.csv) could explain thermal_lag" in w for w in diagnosis["warnings"])
+    assert not any(
+        "could explain" in w
+        for w in json.loads((out / "clean" / "diagnosis.json").read_text())["warnings"]
+    )
 
 
 def test_the_warnings_cell_is_short_ordered_and_never_empty() -> None:
@@ -567,6 +574,46 @@ def test_a_run_cut_short_is_a_quality_finding(S: Path) -> None:
     short = [i for i in issues if i.kind == "short"]
     assert [i.run for i in short] == ["x_pos.csv"]
     assert "cut short" in short[0].message
+
+
+def test_a_log_stored_in_two_files_is_not_a_run_cut_short(S: Path) -> None:
+    from accelcore.input.quality import check_session
+
+    log = S / "x_pos.csv"
+    lines = log.read_text().splitlines()
+    cut = int(0.4 * len(lines))
+    log.write_text("\n".join(lines[:cut]) + "\n")
+    (S / "x_pos_2.csv").write_text("\n".join([lines[0], *lines[cut:]]) + "\n")
+    edit_toml(
+        S,
+        'file = "x_pos.csv"\norientation = "OX+"\n',
+        'file = "x_pos.csv"\norientation = "OX+"\n\n[[run]]\nfile = "x_pos_2.csv"\n'
+        'orientation = "OX+"\n',
+    )
+    session = accelcore.load_session(S, cache=False)
+    assert len(session.runs) == 7
+    assert [i for i in check_session(session, warn=False) if i.kind == "short"] == []
+
+
+def test_a_run_cut_short_gets_no_thermal_lag_from_the_diagnosis(S: Path) -> None:
+    """Effects a quality finding could explain are not tried, and a warning says so."""
+    from accelcore.diagnosis import diagnose
+
+    log = S / "x_pos.csv"
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join(lines[: int(0.25 * len(lines))]) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        session = accelcore.load_session(S, cache=False)
+        told = diagnose(session)
+        untold = diagnose(session, quality=[])
+    assert "thermal_lag" not in told.effects
+    assert "thermal_lag" not in set(told.candidates.get("family", []))
+    notes = [w for w in told.warnings if "could explain" in w]
+    assert len(notes) == 1 and "'short' (x_pos.csv) could explain thermal_lag" in notes[0], notes
+    # Told no findings, the family is tried as before: the finding is what held it back.
+    assert "thermal_lag" in set(untold.candidates["family"])
+    assert not any("could explain" in w for w in untold.warnings)
 
 
 # ----------------------------------------------------- cases that already were right

@@ -154,15 +154,16 @@ def process_session(
         cal = calibrate(session)
         dst.mkdir(parents=True, exist_ok=True)
         cal.save(dst / "calibration.json")
+        quality = check_session(session, warn=False)
         diag = None
         if diagnose:
             stage = "diagnose"
-            diag = run_diagnosis(session, cal)
+            diag = run_diagnosis(session, cal, quality=quality)
             atomic_write(
                 dst / "diagnosis.json", json.dumps(diag.to_dict(), indent=1, sort_keys=True)
             )
         stage = "report"
-        rows = fleet_rows(rel, cal, diag, check_session(session, warn=False))
+        rows = fleet_rows(rel, cal, diag, quality)
         atomic_write(
             marker,
             json.dumps(

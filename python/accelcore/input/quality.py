@@ -27,7 +27,8 @@ Checks
     temperature bins hold data of both orientations of an axis.
 ``short``
     A run covers much less of the temperature range than the other runs (a log
-    cut short): effects that need the whole sweep cannot be judged on it.
+    cut short; the pieces of one log stored in several files count as one run,
+    see :func:`accelcore.input.records.records`).
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ from numpy.typing import NDArray
 from accelcore._accelcore import running_median
 from accelcore.constants import AXES
 from accelcore.errors import DataQualityWarning
+from accelcore.input.records import records
 from accelcore.input.session import Run, Session
 
 __all__ = ["QualityIssue", "check_session", "excluded_blocks"]
@@ -479,8 +481,9 @@ def _check_temperature(
 
 
 def _check_short_runs(session: Session, fraction: float) -> list[QualityIssue]:
+    # Records, not files: a log stored in pieces is one run whose pieces are not short.
     spans: list[tuple[Run, float, float] | None] = []
-    for run in session.runs:
+    for run in records(session):
         t = run.temperature_c[np.isfinite(run.temperature_c)]
         spans.append((run, float(t.min()), float(t.max())) if t.size else None)
     out: list[QualityIssue] = []
