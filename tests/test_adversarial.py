@@ -272,6 +272,27 @@ def test_a_duplicated_header_name_is_a_parse_error(S: Path) -> None:
     assert info.value.path.endswith("y_neg.csv")
 
 
+@pytest.mark.parametrize("split", [False, True])
+def test_the_rust_reader_itself_refuses_a_repeated_header_name(S: Path, split: bool) -> None:
+    """No pre-check in front: the reader (one pass or in pieces) names line 1 and the repeat."""
+    from accelcore._accelcore import read_run
+    from accelcore.apps.bulk import read_run_split
+
+    log = S / "z_pos.csv"
+    lines = log.read_text().splitlines()
+    lines[0] = lines[0].replace("temp_c", "temp_c,y", 1)
+    cells = [line.split(",") for line in lines[1:]]
+    lines[1:] = [",".join([c[0], c[1], "0.5", *c[2:]]) for c in cells]
+    log.write_text("\n".join(lines) + "\n")
+    with pytest.raises(accelcore.ParseError, match=r"'y' appears twice .*columns 3 and 5") as info:
+        if split:
+            read_run_split(log, pieces=3)
+        else:
+            read_run(str(log))
+    assert (info.value.line, info.value.column) == (1, 5)
+    assert info.value.path.endswith("z_pos.csv")
+
+
 def test_a_duplicated_header_name_in_an_orientation_log_is_a_parse_error(tmp_path: Path) -> None:
     log = tmp_path / "log.csv"
     log.write_text("time_s,temp_c,x,y,z,z,orientation\n0,25,1,2,3,4,OZ+\n0.05,25,1,2,3,4,OZ+\n")
@@ -491,6 +512,108 @@ def test_a_bulk_worker_ends_when_its_parent_is_gone() -> None:
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
     proc = subprocess.run([sys.executable, "-c", code], env=env, check=False)
     assert proc.returncode == 1
+
+
+def test_the_bulk_fleet_table_flags_a_run_cut_short(S: Path, tmp_path: Path) -> None:
+    """The issue's case: a run cut to 6 % of its sweep calibrates, and its session is flagged."""
+    from accelcore.apps.bulk import FLEET_COLUMNS, bulk
+    from accelcore.outputs.report import fleet_report
+
+    archive = tmp_path / "archive"
+    shutil.copytree(S, archive / "clean")
+    shutil.copytree(S, archive / "cut")
+    log = archive / "cut" / "x_pos.csv"
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join(lines[: int(0.06 * len(lines))]) + "\n")
+    out = tmp_path / "out"
+    with untouched(archive), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = bulk(archive, out, jobs=1, progress=False, cache=False)
+    assert result.ok
+    assert "warnings" in FLEET_COLUMNS
+    fleet = pd.read_csv(out / "fleet.csv", dtype=str, keep_default_na=False)
+    cells = dict(zip(fleet["session"], fleet["warnings"], strict=True))
+    assert cells["cut"].startswith("short run (x_pos.csv)"), cells["cut"]
+    assert "short run" not in cells["clean"]
+    assert "step (" in cells["clean"]  # this quick simulation has steps: said too
+    page = fleet_report(out, tmp_path / "page").read_text()
+    assert "session(s) with data-quality warnings" in page and "short run (x_pos.csv)" in page
+    # The diagnosis was told the findings: no thermal lag on the strength of the cut run.
+    diagnosis = json.loads((out / "cut" / "diagnosis.json").read_text())
+    assert any("'short' (x_pos.csv) could explain thermal_lag" in w for w in diagnosis["warnings"])
+    assert not any(
+        "could explain" in w
+        for w in json.loads((out / "clean" / "diagnosis.json").read_text())["warnings"]
+    )
+
+
+def test_the_warnings_cell_is_short_ordered_and_never_empty() -> None:
+    from accelcore.apps.fleet_rows import warnings_cell
+    from accelcore.input.quality import QualityIssue
+
+    assert warnings_cell([]) == "none"
+    issues = [
+        QualityIssue("outliers", "…", run="b.csv", channel="z"),
+        QualityIssue("outliers", "…", run="a.csv", channel="y"),
+        QualityIssue("outliers", "…", run="b.csv", channel="y"),
+        QualityIssue("temperature", "…"),
+        QualityIssue("short", "…", run="a.csv"),
+    ]
+    want = "short run (a.csv); sweep not covering the window; spikes left out (b.csv, a.csv)"
+    assert warnings_cell(issues) == want
+    assert warnings_cell(issues[::-1]) == want  # the order of the findings does not matter
+
+
+def test_a_run_cut_short_is_a_quality_finding(S: Path) -> None:
+    from accelcore.input.quality import check_session
+
+    log = S / "x_pos.csv"
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join(lines[: int(0.25 * len(lines))]) + "\n")
+    issues = check_session(accelcore.load_session(S, cache=False), warn=False)
+    short = [i for i in issues if i.kind == "short"]
+    assert [i.run for i in short] == ["x_pos.csv"]
+    assert "cut short" in short[0].message
+
+
+def test_a_log_stored_in_two_files_is_not_a_run_cut_short(S: Path) -> None:
+    from accelcore.input.quality import check_session
+
+    log = S / "x_pos.csv"
+    lines = log.read_text().splitlines()
+    cut = int(0.4 * len(lines))
+    log.write_text("\n".join(lines[:cut]) + "\n")
+    (S / "x_pos_2.csv").write_text("\n".join([lines[0], *lines[cut:]]) + "\n")
+    edit_toml(
+        S,
+        'file = "x_pos.csv"\norientation = "OX+"\n',
+        'file = "x_pos.csv"\norientation = "OX+"\n\n[[run]]\nfile = "x_pos_2.csv"\n'
+        'orientation = "OX+"\n',
+    )
+    session = accelcore.load_session(S, cache=False)
+    assert len(session.runs) == 7
+    assert [i for i in check_session(session, warn=False) if i.kind == "short"] == []
+
+
+def test_a_run_cut_short_gets_no_thermal_lag_from_the_diagnosis(S: Path) -> None:
+    """Effects a quality finding could explain are not tried, and a warning says so."""
+    from accelcore.diagnosis import diagnose
+
+    log = S / "x_pos.csv"
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join(lines[: int(0.25 * len(lines))]) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        session = accelcore.load_session(S, cache=False)
+        told = diagnose(session)
+        untold = diagnose(session, quality=[])
+    assert "thermal_lag" not in told.effects
+    assert "thermal_lag" not in set(told.candidates.get("family", []))
+    notes = [w for w in told.warnings if "could explain" in w]
+    assert len(notes) == 1 and "'short' (x_pos.csv) could explain thermal_lag" in notes[0], notes
+    # Told no findings, the family is tried as before: the finding is what held it back.
+    assert "thermal_lag" in set(untold.candidates["family"])
+    assert not any("could explain" in w for w in untold.warnings)
 
 
 # ----------------------------------------------------- cases that already were right

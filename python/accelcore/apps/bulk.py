@@ -4,7 +4,9 @@
 depth under an archive, calibrates and diagnoses each, and writes per session
 ``OUT/<relative path>/calibration.json`` and ``diagnosis.json``, plus the fleet
 table ``OUT/fleet.parquet`` and ``OUT/fleet.csv`` (one row per session and axis)
-and ``OUT/failures.csv`` (session, stage, reason).
+and ``OUT/failures.csv`` (session, stage, reason). The fleet rows are built in
+:mod:`accelcore.apps.fleet_rows`; their ``warnings`` column holds the session's
+data-quality findings (:func:`accelcore.input.quality.check_session`) in short.
 
 Guarantees
 ----------
@@ -43,18 +45,17 @@ from typing import Any, TextIO
 
 import pandas as pd
 
-from accelcore import datasheets
 from accelcore._accelcore import __version__, merge_runs, plan_split, read_run_range
-from accelcore.diagnosis import Diagnosis
+from accelcore.apps.fleet_rows import fleet_rows
 from accelcore.diagnosis import diagnose as run_diagnosis
 from accelcore.errors import AccelcoreError
 from accelcore.files import atomic_write
 from accelcore.fitting.calibrate import calibrate
 from accelcore.input.cache import CacheSetting
 from accelcore.input.format import SessionFormat
+from accelcore.input.quality import check_session
 from accelcore.input.session import load_session
 from accelcore.outputs.report.fleet import FAILURE_COLUMNS, FLEET_COLUMNS
-from accelcore.result.calibration import Calibration
 
 __all__ = [
     "BULK_SCHEMA",
@@ -69,7 +70,7 @@ __all__ = [
     "worker_count",
 ]
 
-BULK_SCHEMA = "accelcore-bulk/1"
+BULK_SCHEMA = "accelcore-bulk/2"  # 2: the warnings column
 
 
 def find_sessions(archive: str | Path) -> list[str]:
@@ -104,59 +105,6 @@ class SessionOutcome:
     rows: list[dict[str, Any]] = field(default_factory=list)
     failure: tuple[str, str] | None = None
     reused: bool = False
-
-
-def _fleet_rows(rel: str, cal: Calibration, diag: Diagnosis | None) -> list[dict[str, Any]]:
-    sheet = None
-    if cal.sensor:
-        try:
-            sheet = datasheets.load(cal.sensor)
-        except (KeyError, ValueError):
-            sheet = None
-    effects = ";".join(diag.effects) if diag is not None else ""
-    rows = []
-    for axis in cal.axes:
-        s = cal.axis(axis)
-
-        def spec(parameter: str, value: float, axis: str = axis) -> bool | None:
-            if sheet is None or math.isnan(value):
-                return None
-            ok = sheet.in_spec(parameter, axis, value)
-            return None if ok is None else bool(ok)
-
-        not_identified = [n for n in cal.not_identified if n.startswith(f"{axis}:")]
-        rows.append(
-            {
-                "session": rel,
-                "serial": cal.serial or "",
-                "sensor": cal.sensor or "",
-                "units": cal.units,
-                "axis": axis,
-                "zero_g_offset": s.zero_g_offset,
-                "zero_g_offset_se": s.zero_g_offset_se,
-                "sensitivity": s.sensitivity,
-                "sensitivity_se": s.sensitivity_se,
-                "offset_tc_mg_per_c": s.offset_tc_mg_per_c,
-                "offset_tc_mg_per_c_se": s.offset_tc_mg_per_c_se,
-                "sensitivity_tc_pct_per_c": s.sensitivity_tc_pct_per_c,
-                "sensitivity_tc_pct_per_c_se": s.sensitivity_tc_pct_per_c_se,
-                "zero_g_offset_in_spec": spec("zero_g_offset", s.zero_g_offset),
-                "sensitivity_in_spec": spec("sensitivity", s.sensitivity),
-                "offset_tc_in_spec": spec("offset_tc_mg_per_c", s.offset_tc_mg_per_c),
-                "sensitivity_tc_in_spec": spec(
-                    "sensitivity_tc_pct_per_c", s.sensitivity_tc_pct_per_c
-                ),
-                "not_identified": ";".join(not_identified),
-                "effects": effects,
-                "heldout_rms_mg_before": (
-                    diag.steps[0].rms_out_axis_mg[axis] if diag is not None else math.nan
-                ),
-                "heldout_rms_mg_after": (
-                    diag.steps[-1].rms_out_axis_mg[axis] if diag is not None else math.nan
-                ),
-            }
-        )
-    return rows
 
 
 def process_session(
@@ -206,15 +154,16 @@ def process_session(
         cal = calibrate(session)
         dst.mkdir(parents=True, exist_ok=True)
         cal.save(dst / "calibration.json")
+        quality = check_session(session, warn=False)
         diag = None
         if diagnose:
             stage = "diagnose"
-            diag = run_diagnosis(session, cal)
+            diag = run_diagnosis(session, cal, quality=quality)
             atomic_write(
                 dst / "diagnosis.json", json.dumps(diag.to_dict(), indent=1, sort_keys=True)
             )
         stage = "report"
-        rows = _fleet_rows(rel, cal, diag)
+        rows = fleet_rows(rel, cal, diag, quality)
         atomic_write(
             marker,
             json.dumps(

@@ -31,6 +31,7 @@ import pandas as pd
 
 from accelcore.errors import ParameterError
 from accelcore.fitting.calibrate import calibrate
+from accelcore.input.quality import QualityIssue, check_session
 from accelcore.input.session import Session
 from accelcore.model import AXES
 from accelcore.result.calibration import Calibration
@@ -50,7 +51,14 @@ from .structure import (
     temperature_span_c,
 )
 
-__all__ = ["diagnose"]
+__all__ = ["QUALITY_EXPLAINS", "diagnose"]
+
+#: Effect families each kind of data-quality finding
+#: (:func:`accelcore.input.quality.check_session`) could explain, and so are not
+#: tried when it is found: a run cut short holds only the start of the sweep, its lag
+#: state and temperature path unlike the other runs', so a lag fitted across the runs
+#: may only mirror the cut.
+QUALITY_EXPLAINS: Mapping[str, tuple[str, ...]] = {"short": ("thermal_lag",)}
 
 #: (family, variant label, CV, spec) of one variant tried.
 _Tried = tuple[str, str, CV, Spec]
@@ -263,6 +271,7 @@ def diagnose(
     n_bins: int = 30,
     alpha_structure: float = 1e-3,
     min_structure_mg: float = 0.1,
+    quality: Sequence[QualityIssue] | None = None,
 ) -> Diagnosis:
     """Find what a calibration model misses and add it, choosing by held-out error only.
 
@@ -306,6 +315,12 @@ def diagnose(
         Level of the generic structure check.
     min_structure_mg : float, default 0.1
         Smallest structure reported, mg rms.
+    quality : sequence of QualityIssue, optional
+        The session's data-quality findings; default: those of
+        :func:`accelcore.input.quality.check_session` (without warnings). A
+        family a finding could explain (:data:`QUALITY_EXPLAINS`, e.g. no
+        ``thermal_lag`` when a run was cut short) is not tried, and a warning
+        says which and why.
 
     Returns
     -------
@@ -338,6 +353,11 @@ def diagnose(
             f"the temperature spans {span:.2f} °C (less than {MIN_TEMPERATURE_SPAN_C:g} °C): no "
             "temperature-driven effect is tried or reported"
         )
+    if quality is None:
+        window = base.window_c if all(map(math.isfinite, base.window_c)) else None
+        quality = check_session(session, window_c=window, warn=False)
+    tried, skipped = _not_explained_by(tried, quality)
+    warn += skipped
     rules = _Rules(tried, usable_extras, max_order, tau_range_s, min_improvement, alpha)
     selection = _Selection(eng, specs, rules)
     selection.run(max_steps)
@@ -377,6 +397,27 @@ def diagnose(
         options=options,
         _engine=eng,
     )
+
+
+def _not_explained_by(
+    families: Sequence[str], quality: Sequence[QualityIssue]
+) -> tuple[list[str], list[str]]:
+    """Drop the families a quality finding could explain; one warning per finding kind."""
+    kept = list(families)
+    notes = []
+    for kind, explained in QUALITY_EXPLAINS.items():
+        found = [i for i in quality if i.kind == kind]
+        dropped = [f for f in explained if f in kept]
+        if not found or not dropped:
+            continue
+        kept = [f for f in kept if f not in dropped]
+        runs = sorted({i.run for i in found if i.run})
+        where = f" ({', '.join(runs)})" if runs else ""
+        notes.append(
+            f"data-quality finding '{kind}'{where} could explain {', '.join(dropped)}: "
+            "not tried (fix the data, or diagnose with quality=[] to try it anyway)"
+        )
+    return kept, notes
 
 
 def _check_options(

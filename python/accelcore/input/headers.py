@@ -1,9 +1,9 @@
-"""Header names of a delimited log: each must be distinct, or one column would win in silence.
+"""Header names of a log: each must be distinct, or one column would win in silence.
 
-:func:`check_log_header` reads only the first non-blank line of a log, so it
-runs before the Rust reader parses the file (which, given a repeated name, would
-use the first column of that name). The other readers call
-:func:`check_unique_names` on the names they find (a Parquet schema, a TDMS group).
+The Rust reader behind :func:`accelcore.load_session` refuses a repeated name
+itself. The readers written in Python call :func:`check_unique_names` on the
+names they find (an orientation log's first line, read by
+:func:`first_line_fields`, a Parquet schema, a TDMS group).
 
 May import: the foundation only.
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 
 from accelcore.errors import ParseError
 
-__all__ = ["check_log_header", "check_unique_names", "first_line_fields"]
+__all__ = ["check_unique_names", "first_line_fields"]
 
 
 def first_line_fields(path: str | Path, separator: str) -> list[str]:
@@ -69,26 +69,3 @@ def check_unique_names(path: str, names: Sequence[str], *, header_line: bool) ->
             err.path, err.line, err.column = path, 1, i + 1
             raise err
         seen[name] = i
-
-
-def check_log_header(path: str | Path, separator: str) -> None:
-    """Refuse a delimited log whose header repeats a column name (reads one line).
-
-    Parameters
-    ----------
-    path : str or Path
-        The log.
-    separator : str
-        The field separator.
-
-    Raises
-    ------
-    accelcore.ParseError
-        As :func:`check_unique_names`. A file that cannot be opened is left to
-        the reader, whose error names it.
-    """
-    try:
-        names = first_line_fields(path, separator)
-    except OSError:
-        return
-    check_unique_names(str(path), names, header_line=True)

@@ -25,6 +25,10 @@ Checks
 ``temperature``
     The logged temperature does not cover the analysis window, or too few
     temperature bins hold data of both orientations of an axis.
+``short``
+    A run covers much less of the temperature range than the other runs (a log
+    cut short; the pieces of one log stored in several files count as one run,
+    see :func:`accelcore.input.records.records`).
 """
 
 from __future__ import annotations
@@ -40,12 +44,15 @@ from numpy.typing import NDArray
 from accelcore._accelcore import running_median
 from accelcore.constants import AXES
 from accelcore.errors import DataQualityWarning
+from accelcore.input.records import records
 from accelcore.input.session import Run, Session
 
 __all__ = ["QualityIssue", "check_session", "excluded_blocks"]
 
 #: Robust standard deviations per unit of median absolute deviation (normal data).
 MAD_TO_SIGMA = 1.4826
+#: Temperature span, °C, the other runs must have for a run to be called short.
+SHORT_MIN_SPAN_C = 2.0
 #: Blocks processed at a time by the sliding-window statistics (bounded memory).
 _CHUNK = 1 << 16
 
@@ -58,7 +65,7 @@ class QualityIssue:
     ----------
     kind : str
         ``rate``, ``gaps``, ``nonfinite``, ``truncated``, ``clipping``,
-        ``outliers``, ``step`` or ``temperature``.
+        ``outliers``, ``step``, ``temperature`` or ``short``.
     message : str
         What was seen and what to do about it.
     run : str or None
@@ -93,6 +100,7 @@ def check_session(
     window_c: tuple[float, float] | None = (0.0, 60.0),
     bin_width_c: float = 0.5,
     min_bins: int = 3,
+    short_fraction: float = 0.5,
     warn: bool = True,
 ) -> list[QualityIssue]:
     """Check a session for data problems; return (and by default warn about) each.
@@ -121,6 +129,10 @@ def check_session(
         Temperature bin width, °C (as in :func:`accelcore.calibrate`).
     min_bins : int, default 3
         Fewest bins holding both orientations of an axis that a fit needs.
+    short_fraction : float, default 0.5
+        A run whose temperature span is less than this fraction of the median
+        span of the other runs (when that median is at least
+        :data:`SHORT_MIN_SPAN_C`) is reported as ``short``.
     warn : bool, default True
         Also emit each issue as a :class:`~accelcore.errors.DataQualityWarning`.
 
@@ -152,6 +164,7 @@ def check_session(
         )
     if window_c is not None:
         issues += _check_temperature(session, window_c, bin_width_c, min_bins)
+    issues += _check_short_runs(session, short_fraction)
     if warn:
         for issue in issues:
             where = f"{issue.run}: " if issue.run else ""
@@ -462,6 +475,33 @@ def _check_temperature(
                     "or use narrower bins",
                     channel=axis,
                     count=both,
+                )
+            )
+    return out
+
+
+def _check_short_runs(session: Session, fraction: float) -> list[QualityIssue]:
+    # Records, not files: a log stored in pieces is one run whose pieces are not short.
+    spans: list[tuple[Run, float, float] | None] = []
+    for run in records(session):
+        t = run.temperature_c[np.isfinite(run.temperature_c)]
+        spans.append((run, float(t.min()), float(t.max())) if t.size else None)
+    out: list[QualityIssue] = []
+    for i, entry in enumerate(spans):
+        others = [e[2] - e[1] for j, e in enumerate(spans) if j != i and e is not None]
+        if entry is None or not others:
+            continue
+        run, lo, hi = entry
+        typical = float(np.median(others))
+        if typical >= SHORT_MIN_SPAN_C and hi - lo < fraction * typical:
+            out.append(
+                QualityIssue(
+                    "short",
+                    f"covers {lo:.4g}…{hi:.4g} °C, {100 * (hi - lo) / typical:.0f} % of the "
+                    f"{typical:.4g} °C the other runs span: the log looks cut short: log the "
+                    "whole sweep, or leave the run out",
+                    run=run.label,
+                    count=len(run),
                 )
             )
     return out

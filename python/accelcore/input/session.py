@@ -29,7 +29,6 @@ from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
 from accelcore.input.consistency import check_labels, check_rate
 from accelcore.input.format import SessionFormat, check_units, gravity_of
 from accelcore.input.frames import run_table
-from accelcore.input.headers import check_log_header
 from accelcore.input.run import Run, RunStats
 
 __all__ = [
@@ -359,8 +358,6 @@ def load_session(
     }
 
     def read(file: Path) -> tuple[RunRecord, str]:
-        # One line, before the Rust reader: it would let the first of two same-named columns win.
-        check_log_header(file, fmt.separator)
         data = read_run(str(file), sha256=True, **params)
         assert data.sha256 is not None  # asked for
         return RunRecord.from_run_data(data), data.sha256

@@ -5,7 +5,8 @@
 //! - an optional UTF-8 byte-order mark is dropped; `\r\n` and `\n` line ends are both accepted;
 //! - line 1 is the header; every requested column must be present
 //!   ([`Error::Parse`] at line 1 names the missing one and lists those found,
-//!   and suggests the delimiter when the header looks split by another one);
+//!   and suggests the delimiter when the header looks split by another one), and no
+//!   name may appear twice ([`Error::Parse`] at line 1, at the column of the repeat);
 //! - blank lines are skipped; a data line with a field count other than the header's is an
 //!   error naming its line, except a last line without a newline that is shorter than the
 //!   header (a log cut off mid-write), which is dropped and counted in
@@ -15,6 +16,7 @@
 //!   is an error naming line and column (1-based field index) and the text found;
 //! - time must strictly increase: an error names the line (the decimator's rule).
 
+use std::collections::HashMap;
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
@@ -381,7 +383,14 @@ struct ColumnMap {
     names: Vec<String>,
 }
 
-fn map_columns(path: &str, header: &[String], format: &CsvFormat) -> Result<ColumnMap> {
+/// Where each wanted column is. Missing columns are reported first, then a repeated
+/// name (see [`check_unique_names`]).
+fn map_columns(
+    path: &str,
+    header: &[String],
+    header_line: u64,
+    format: &CsvFormat,
+) -> Result<ColumnMap> {
     let find = |name: &str| header.iter().position(|h| h == name);
     let mut missing = Vec::new();
     let mut need = |name: &str| {
@@ -427,6 +436,7 @@ fn map_columns(path: &str, header: &[String], format: &CsvFormat) -> Result<Colu
         }
         return Err(parse_error(path, 1, 1, reason));
     }
+    check_unique_names(path, header_line, header)?;
     let mut names = format.channel_columns.clone();
     if format.keep_extra_columns {
         // A mask, not `channels.contains`: linear in the header width.
@@ -630,6 +640,30 @@ fn read_header<R: BufRead>(
     }
 }
 
+/// Refuse a header that repeats a name: otherwise the first column of that name
+/// would be read in silence and the other ignored. The error names the second
+/// occurrence's column. A map, not a pairwise scan: linear in the header width.
+fn check_unique_names(path: &str, line_no: u64, header: &[String]) -> Result<()> {
+    let mut seen: HashMap<&str, usize> = HashMap::with_capacity(header.len());
+    for (i, name) in header.iter().enumerate() {
+        if let Some(&first) = seen.get(name.as_str()) {
+            return Err(parse_error(
+                path,
+                line_no,
+                i as u64 + 1,
+                format!(
+                    "column name '{name}' appears twice in the header (columns {} and {}); \
+                     every column needs a distinct name",
+                    first + 1,
+                    i + 1
+                ),
+            ));
+        }
+        seen.insert(name, i);
+    }
+    Ok(())
+}
+
 /// The data lines after the header. `first_line` is the line number of the line
 /// before the first one read (None when reading a piece whose position in lines is
 /// unknown: errors then count lines relative to the piece, fixed up by the caller).
@@ -645,7 +679,7 @@ fn read_body<R: BufRead>(
     allow_empty: bool,
 ) -> Result<RunData> {
     let mut line_no: u64 = first_line.unwrap_or(0);
-    let columns = map_columns(path, &header, format)?;
+    let columns = map_columns(path, &header, header_line, format)?;
     let n_fields = header.len();
     let n_channels = columns.channels.len();
     let mut decimator = Decimator::new(DecimatorConfig {
@@ -769,7 +803,7 @@ pub fn plan_split(path: &Path, format: &CsvFormat, pieces: usize) -> Result<Spli
     let size = file.metadata().map_err(|e| io_error(&shown, &e))?.len();
     let mut reader = BufReader::with_capacity(1 << 16, file);
     let (header, header_line, data_start) = read_header(&mut reader, &shown, format)?;
-    let columns = map_columns(&shown, &header, format)?;
+    let columns = map_columns(&shown, &header, header_line, format)?;
     // The first finite time: the block grid's origin of a one-pass read.
     let mut t0_s = None;
     let mut line = Vec::with_capacity(256);
@@ -836,6 +870,8 @@ pub fn read_run_range(
     let file = File::open(path).map_err(|e| io_error(&shown, &e))?;
     let mut reader = BufReader::with_capacity(1 << 16, file);
     let (header, header_line, data_start) = read_header(&mut reader, &shown, format)?;
+    // Header errors here, where their line is known (the body's are counted from `start`).
+    map_columns(&shown, &header, header_line, format)?;
     let start = start.max(data_start);
     let mut file = reader.into_inner();
     file.seek(SeekFrom::Start(start))

@@ -16,7 +16,9 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use accelcore_core::reader::MAX_LINE_BYTES;
-use accelcore_core::{read_run_from, CsvFormat, DecimatorConfig, Error, RunData};
+use accelcore_core::{
+    plan_split, read_run_from, read_run_range, CsvFormat, DecimatorConfig, Error, RunData,
+};
 use proptest::prelude::*;
 
 fn regressions_dir() -> PathBuf {
@@ -199,19 +201,93 @@ fn delimiter_storms_and_lone_carriage_returns() {
 
 #[test]
 fn duplicate_and_aliased_column_names() {
-    // Same name for time and a channel: the first match is used for both.
+    // A name repeated in the header: an error at line 1, at the column of the
+    // second occurrence (it used to read the first column of that name in silence).
     let format = CsvFormat {
         channel_columns: vec!["time_s".into(), "y".into(), "y".into()],
         ..CsvFormat::default()
     };
-    let run = read_run_from(
+    match read_run_from(
         &b"time_s,temp_c,y,y\n0,20,1,2\n1,20,1,2\n"[..],
+        "x.csv",
+        &format,
+        DecimatorConfig::default(),
+    ) {
+        Err(Error::Parse {
+            path,
+            line,
+            column,
+            reason,
+        }) => {
+            assert_eq!((path.as_str(), line, column), ("x.csv", 1, 4));
+            assert!(reason.contains("'y' appears twice") && reason.contains("columns 3 and 4"));
+        }
+        other => panic!("{other:?}"),
+    }
+    // The same with a blank line before the header: the header's own line is named.
+    parse_error_at(
+        read_run_from(
+            &b"\ntime_s,temp_c,x,y,z,x\n0,20,1,2,3,4\n"[..],
+            "x.csv",
+            &CsvFormat::default(),
+            DecimatorConfig::default(),
+        ),
+        2,
+        "'x' appears twice",
+    );
+    // Distinct header names, one requested for two roles (time and a channel):
+    // the reader reads that column for both (the session checks its mapping).
+    let run = read_run_from(
+        &b"time_s,temp_c,y,z\n0,20,1,2\n1,20,1,2\n"[..],
         "x.csv",
         &format,
         DecimatorConfig::default(),
     )
     .unwrap();
     assert_eq!(run.n_rows, 2);
+}
+
+#[test]
+fn repeated_header_name_is_refused_on_every_read_path() {
+    // The split read (a plan, then a later piece read alone) names line 1 too,
+    // not line 1 plus the lines before the piece.
+    let text: String = std::iter::once("time_s,temp_c,x,y,z,y\n".to_string())
+        .chain((0..50).map(|i| format!("{i},20,1,2,3,4\n")))
+        .collect();
+    let path = std::env::temp_dir().join(format!(
+        "accelcore-repeated-header-{}.csv",
+        std::process::id()
+    ));
+    std::fs::write(&path, &text).unwrap();
+    let format = CsvFormat::default();
+    let planned = plan_split(&path, &format, 2);
+    let config = DecimatorConfig {
+        t0_s: Some(0.0),
+        min_count: 1,
+        ..DecimatorConfig::default()
+    };
+    let piece = read_run_range(
+        &path,
+        &format,
+        config,
+        text.len() as u64 / 2,
+        text.len() as u64,
+    );
+    std::fs::remove_file(&path).unwrap();
+    for result in [planned.map(|_| ()), piece.map(|_| ())] {
+        match result {
+            Err(Error::Parse {
+                line,
+                column,
+                reason,
+                ..
+            }) => {
+                assert_eq!((line, column), (1, 6), "{reason}");
+                assert!(reason.contains("'y' appears twice"), "{reason}");
+            }
+            other => panic!("{other:?}"),
+        }
+    }
 }
 
 /// A reader that fails after some bytes, like a network file system dropping out.

@@ -3,7 +3,8 @@
 :func:`fleet_report` writes ``index.html`` for a folder written by
 :func:`accelcore.apps.bulk.bulk` (recognised by its ``fleet.csv``): per sensor type
 and temperature coefficient, the distribution across parts per axis against
-the datasheet limits, then the fleet table and the failures. The columns of
+the datasheet limits, then the fleet table (the sessions with data-quality
+warnings named above it) and the failures. The columns of
 ``fleet.csv`` and ``failures.csv`` are defined here, where they are read; the
 bulk application writes them. Part of the outputs room.
 """
@@ -36,6 +37,7 @@ __all__ = [
     "FAILURE_COLUMNS",
     "FLEET_COLUMNS",
     "FLEET_PARAMETERS",
+    "NO_WARNINGS",
     "fleet_report",
     "is_bulk_output",
 ]
@@ -63,7 +65,11 @@ FLEET_COLUMNS = (
     "effects",
     "heldout_rms_mg_before",
     "heldout_rms_mg_after",
+    "warnings",
 )
+#: The ``warnings`` cell of a session without data-quality findings (an empty
+#: cell would read back as missing, as if the session had not been checked).
+NO_WARNINGS = "none"
 #: Columns of ``failures.csv``: one row per failed session.
 FAILURE_COLUMNS = ("session", "stage", "reason")
 
@@ -231,12 +237,21 @@ def fleet_report(
         '<section id="fleet-table"><h2>Fleet table</h2>',
     ]
     cols = [str(c) for c in fleet.columns]
-    numeric = [
-        c
-        for c in cols
-        if c not in ("session", "serial", "sensor", "units", "axis", "not_identified", "effects")
-        and c not in spec_cols
-    ]
+    text = ("session", "serial", "sensor", "units", "axis", "not_identified", "effects", "warnings")
+    numeric = [c for c in cols if c not in text and c not in spec_cols]
+    if "warnings" in fleet.columns:
+        pairs = zip(fleet["session"], fleet["warnings"], strict=True)
+        flagged = sorted({s for s, w in pairs if _flagged(w)})
+        sections.append(
+            "<p>"
+            + (
+                f"{len(flagged)} session(s) with data-quality warnings (column "
+                f"<code>warnings</code>): {escape(', '.join(flagged))}"
+                if flagged
+                else "No session has a data-quality warning."
+            )
+            + "</p>"
+        )
     sections += [
         table(cols, fleet.to_dict(orient="records"), numeric=numeric, spec=spec_cols, cls="fleet"),
         "</section>",
@@ -259,6 +274,11 @@ def fleet_report(
     ]
     target = Path(out_dir) if out_dir is not None else src
     return write_page(target, page(f"accelcore fleet report: {src.resolve().name}", sections))
+
+
+def _flagged(cell: str) -> bool:
+    """Whether a ``warnings`` cell holds findings (not empty, not "none")."""
+    return bool(cell) and cell != NO_WARNINGS
 
 
 def _sha256(path: Path) -> str:
