@@ -552,6 +552,8 @@ def calibrate(
         "session_path": session.path,
         "files_sha256": session.file_hashes(),
     }
+    if session.format is not None and session.format.lab:
+        provenance["lab"] = dict(session.format.lab)
     return Calibration(
         method=method,
         units=session.units,
