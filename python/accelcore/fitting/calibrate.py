@@ -547,6 +547,15 @@ def calibrate(
         axes, not_identified, notes, t_range, refs = _fit_joint(
             session, model_terms, t_ref_c, window_c, robust=robust
         )
+    lo, hi = t_range
+    if math.isfinite(lo) and not lo <= t_ref_c <= hi:
+        away = lo - t_ref_c if t_ref_c < lo else t_ref_c - hi
+        notes = [
+            *notes,
+            f"T_ref {t_ref_c:g} °C lies {away:.1f} °C outside the fitted range "
+            f"{lo:.1f}…{hi:.1f} °C: the offset and sensitivity at T_ref are extrapolated "
+            "(pass t_ref_c inside the data to report them where they were measured)",
+        ]
     provenance: dict[str, Any] = {
         "accelcore_version": __version__,
         "session_path": session.path,
