@@ -552,3 +552,16 @@ def test_spec_flags_follow_the_truth_for_every_part(
         assert bool(row["in_spec"]) == bool(lim.contains(truth)), f"{part} {label} {axis}"
         checked += 1
     assert checked > 0
+
+
+def test_a_reference_temperature_outside_the_data_is_said() -> None:
+    from accelcore import Session, simulate
+
+    sim = simulate.arrays("ADXL335", seed=5, duration_h=0.3, t_start_c=40.0, t_end_c=60.0)
+    session = Session.from_arrays(
+        [(r.orientation, r.columns) for r in sim.runs], units=sim.units, rate_hz=sim.rate_hz
+    )
+    far = calibrate(session)  # T_ref 25 °C, data 40-60 °C
+    assert any("T_ref 25 °C lies" in n and "outside the fitted range" in n for n in far.notes)
+    near = calibrate(session, t_ref_c=50.0)
+    assert not any("T_ref" in n for n in near.notes)

@@ -117,3 +117,50 @@ def test_invalid_keys_are_named(tmp_path: Path, old: str, new: str, message: str
     folder = write(tmp_path / "s", TOML.replace(old, new))
     with pytest.raises(accelcore.SessionFormatError, match=message):
         SessionFormat.read(folder)
+
+
+@pytest.mark.parametrize(
+    ("typo", "message"),
+    [
+        ('serail = "A-1"\n', "unknown key 'serail'; did you mean 'serial'?"),
+        ("rate = 20\n", "unknown key 'rate'; did you mean 'rate_hz'?"),
+        ('chamber = "B"\n', "unknown key 'chamber'; known keys: format, sensor"),
+    ],
+)
+def test_an_unknown_key_is_named_with_the_nearest_known_one(
+    tmp_path: Path, typo: str, message: str
+) -> None:
+    folder = write(tmp_path / "s", typo + TOML)
+    with pytest.raises(accelcore.SessionFormatError, match=message.replace("?", r"\?")):
+        SessionFormat.read(folder)
+
+
+def test_an_unknown_run_key_is_named_with_its_run(tmp_path: Path) -> None:
+    toml = TOML.replace('file = "b.tsv"\n', 'file = "b.tsv"\norientaton = "OX-"\n')
+    folder = write(tmp_path / "s", toml)
+    with pytest.raises(
+        accelcore.SessionFormatError,
+        match=r"unknown key 'orientaton' in \[\[run\]\] #2; did you mean 'orientation'\?",
+    ):
+        SessionFormat.read(folder)
+
+
+def test_the_lab_record_reaches_the_calibration(tmp_path: Path) -> None:
+    from accelcore import simulate
+
+    folder = tmp_path / "s"
+    simulate.session(folder, "ADXL335", seed=2, duration_h=0.3)
+    toml = folder / "session.toml"
+    lab = '\n[lab]\ndate = "2026-11-23"\noperator = "A. Ng"\nchamber = "Vötsch VT 4002"\n'
+    toml.write_text(toml.read_text().replace("\n[columns]", lab + "\n[columns]", 1))
+    session = load_session(folder, cache=False)
+    assert dict(session.format.lab) == {  # type: ignore[union-attr]
+        "date": "2026-11-23",
+        "operator": "A. Ng",
+        "chamber": "Vötsch VT 4002",
+    }
+    cal = accelcore.calibrate(session)
+    assert cal.provenance["lab"]["operator"] == "A. Ng"
+    toml.write_text(toml.read_text().replace("operator", "operater"))
+    with pytest.raises(accelcore.SessionFormatError, match=r"in \[lab\]; did you mean 'operator'"):
+        SessionFormat.read(folder)

@@ -547,11 +547,22 @@ def calibrate(
         axes, not_identified, notes, t_range, refs = _fit_joint(
             session, model_terms, t_ref_c, window_c, robust=robust
         )
+    lo, hi = t_range
+    if math.isfinite(lo) and not lo <= t_ref_c <= hi:
+        away = lo - t_ref_c if t_ref_c < lo else t_ref_c - hi
+        notes = [
+            *notes,
+            f"T_ref {t_ref_c:g} °C lies {away:.1f} °C outside the fitted range "
+            f"{lo:.1f}…{hi:.1f} °C: the offset and sensitivity at T_ref are extrapolated "
+            "(pass t_ref_c inside the data to report them where they were measured)",
+        ]
     provenance: dict[str, Any] = {
         "accelcore_version": __version__,
         "session_path": session.path,
         "files_sha256": session.file_hashes(),
     }
+    if session.format is not None and session.format.lab:
+        provenance["lab"] = dict(session.format.lab)
     return Calibration(
         method=method,
         units=session.units,

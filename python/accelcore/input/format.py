@@ -11,12 +11,13 @@ May import: the foundation only (:mod:`accelcore.constants`, :mod:`accelcore.err
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import math
 import stat
 import tomllib
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -149,6 +150,10 @@ class SessionFormat:
         The ``[[run]]`` tables, in order.
     sha256 : str
         SHA-256 of the bytes of ``session.toml`` that were parsed.
+    lab : mapping of str to str
+        The optional ``[lab]`` table (``date``, ``operator``, ``chamber``,
+        ``reference_probe``, ``notes``): the lab's record, carried into the
+        calibration's provenance.
     """
 
     folder: Path
@@ -162,6 +167,7 @@ class SessionFormat:
     columns: Mapping[str, str]
     runs: tuple[RunSpec, ...]
     sha256: str
+    lab: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
 
     @property
     def toml_path(self) -> Path:
@@ -301,6 +307,7 @@ class SessionFormat:
             raise SessionFormatError(
                 f"{where}: format {fmt!r} is not supported; expected {SESSION_FORMAT!r}"
             )
+        _known_keys(meta, TOP_KEYS, where, "")
         for key in ("units", "rate_hz"):
             if key not in meta:
                 raise SessionFormatError(f"{where}: missing required key '{key}'")
@@ -322,6 +329,7 @@ class SessionFormat:
         runs = _runs(meta.get("run"), folder, where, check_files=check_files)
         sensor = meta.get("sensor") or None
         serial = meta.get("serial") or None
+        lab = _lab(meta.get("lab", {}), where)
         return cls(
             folder=folder,
             version=str(fmt),
@@ -334,7 +342,43 @@ class SessionFormat:
             columns=MappingProxyType(columns),
             runs=runs,
             sha256=sha256,
+            lab=MappingProxyType(lab),
         )
+
+
+#: Keys of ``session.toml``'s top level, of a ``[[run]]`` table and of ``[lab]``.
+TOP_KEYS = (
+    "format",
+    "sensor",
+    "serial",
+    "units",
+    "rate_hz",
+    "delimiter",
+    "time_unit",
+    "columns",
+    "run",
+    "lab",
+)
+RUN_KEYS = ("file", "orientation")
+LAB_KEYS = ("date", "operator", "chamber", "reference_probe", "notes")
+
+
+def _known_keys(table: Mapping[str, object], known: Sequence[str], where: str, name: str) -> None:
+    """Refuse a key the format does not know, suggesting the nearest known one."""
+    for key in table:
+        if key in known:
+            continue
+        near = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
+        hint = f"; did you mean '{near[0]}'?" if near else f"; known keys: {', '.join(known)}"
+        raise SessionFormatError(f"{where}: unknown key '{key}'{name}{hint}")
+
+
+def _lab(given: object, where: str) -> dict[str, str]:
+    """Check the optional ``[lab]`` table: the lab's record, carried into every result."""
+    if not isinstance(given, dict):
+        raise SessionFormatError(f"{where}: [lab] must be a table ({', '.join(LAB_KEYS)})")
+    _known_keys(given, LAB_KEYS, where, " in [lab]")
+    return {k: str(v) for k, v in given.items()}
 
 
 def _columns(given: object, where: str) -> dict[str, str]:
@@ -389,6 +433,7 @@ def _runs(tables: object, folder: Path, where: str, *, check_files: bool) -> tup
     for i, table in enumerate(tables, start=1):
         if not isinstance(table, dict):
             raise SessionFormatError(f"{where}: [[run]] #{i} must be a table")
+        _known_keys(table, RUN_KEYS, where, f" in [[run]] #{i}")
         for key in ("file", "orientation"):
             if key not in table:
                 raise SessionFormatError(f"{where}: [[run]] #{i} is missing required key '{key}'")
