@@ -1,0 +1,176 @@
+"""ArduPilot DataFlash ``.bin`` logs (``pip install accelcore[ardupilot]``): one ``IMU`` instance.
+
+pymavlink is optional: it is imported when :func:`read_dataflash` is called, so
+that ``import accelcore`` works without it.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+
+from accelcore.errors import ParameterError
+from accelcore.input.readers import common
+from accelcore.input.readers.common import _check_file, _parse_error
+from accelcore.input.readers.flightlog import (
+    LEVEL_ORIENTATION,
+    FlightRows,
+    flight_session,
+    require,
+)
+from accelcore.input.session import Session
+
+__all__ = ["read_dataflash"]
+
+#: Every binary DataFlash log starts with a message header (0xA3 0x95) and the
+#: format message (FMT, type 0x80) that describes FMT itself.
+DATAFLASH_MAGIC = b"\xa3\x95\x80"
+FIELDS = ("TimeUS", "AccX", "AccY", "AccZ", "T")
+
+
+def _stream_name(reader: Any, file: str, instance: int) -> tuple[str, bool]:
+    """The message type to read and whether it carries an instance field ``I``.
+
+    ArduPilot 4.1 and later log every IMU as ``IMU`` with an instance field;
+    older logs use ``IMU``, ``IMU2``, ``IMU3``.
+    """
+    if "IMU" not in reader.name_to_id:
+        raise _parse_error(file, 1, 1, "no IMU message format (FMT) in the log", where=None)
+    columns = reader.formats[reader.name_to_id["IMU"]].columns
+    if "I" in columns:
+        name, by_field = "IMU", True
+    else:
+        name, by_field = ("IMU" if instance == 0 else f"IMU{instance + 1}"), False
+        if name not in reader.name_to_id:
+            olds = [n for n in ("IMU", "IMU2", "IMU3") if n in reader.name_to_id]
+            raise ParameterError(
+                f"{file}: no IMU instance {instance}; the log has instance(s) "
+                f"{', '.join(str(k) for k in range(len(olds)))}"
+            )
+        columns = reader.formats[reader.name_to_id[name]].columns
+    missing = [f for f in FIELDS if f not in columns]
+    if missing:
+        raise _parse_error(
+            file, 1, 1, f"message {name} has no field(s) {', '.join(missing)}", where=None
+        )
+    return name, by_field
+
+
+def read_dataflash(
+    path: str | os.PathLike[str],
+    *,
+    instance: int = 0,
+    orientation: str = LEVEL_ORIENTATION,
+    rate_hz: float | None = None,
+    sensor: str | None = None,
+    serial: str | None = None,
+    decimation_factor: int = 10,
+    min_count: int = 1,
+    settle_s: float = 0.0,
+) -> Session:
+    """Read one accelerometer of an ArduPilot DataFlash log (``pip install accelcore[ardupilot]``).
+
+    Reads the ``IMU`` messages of one instance (field ``I``; ``IMU2``/``IMU3``
+    in logs older than ArduPilot 4.1): ``AccX``, ``AccY``, ``AccZ`` in m/s² as
+    logged (ArduPilot logs them after its own calibration and temperature
+    compensation, if any is enabled), ``T`` in °C and ``TimeUS`` (µs since
+    boot, kept as seconds since boot). Only binary logs (``.bin``) are read.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The ``.bin`` file.
+    instance : int, default 0
+        The IMU instance (0 is the first IMU).
+    orientation : str, default "OZ-"
+        The orientation of the whole log (one run). ArduPilot's body frame is
+        FRD (z down), so a board lying flat reads -1 g on z: ``OZ-``.
+    rate_hz : float, optional
+        Logging rate of the IMU messages; by default the median interval of the
+        first chunk of samples (rounded to 6 significant digits).
+    sensor, serial : str, optional
+        Part name (for datasheet comparison) and serial of the session.
+    decimation_factor, min_count, settle_s
+        As in :func:`read_orientation_log`.
+
+    Returns
+    -------
+    Session
+        One run in ``m/s2``; ``path`` is None and the run's ``source`` is
+        ``"FILE#IMU[<instance>]:messages=<first>-<last>"``.
+
+    Raises
+    ------
+    accelcore.AccelcoreError
+        pymavlink is not installed (the message names the extra).
+    accelcore.ParseError
+        Not a binary DataFlash log, no ``IMU`` message format, or a field
+        missing from it (the message names the file).
+    accelcore.ParameterError
+        No IMU instance ``instance`` (the message lists those found).
+    """
+    dfreader = require("pymavlink.DFReader", "ardupilot", "read_dataflash")
+    file = _check_file(path)
+    if not isinstance(instance, int) or isinstance(instance, bool) or instance < 0:
+        raise ParameterError(f"instance must be an integer >= 0, got {instance!r}")
+    with open(file, "rb") as handle:
+        magic = handle.read(len(DATAFLASH_MAGIC))
+    if magic != DATAFLASH_MAGIC:
+        raise _parse_error(
+            file, 1, 1, "not an ArduPilot DataFlash log (no binary FMT header)", where=None
+        )
+    try:
+        reader = dfreader.DFReader_binary(file, zero_time_base=False)
+    except Exception as exc:  # pymavlink raises struct.error, ValueError, KeyError...
+        raise _parse_error(
+            file, 1, 1, f"not a readable DataFlash log: {exc}", where=None
+        ) from None
+    name, by_field = _stream_name(reader, file, instance)
+    seen: set[int] = set()
+
+    def rows() -> Iterator[FlightRows]:
+        buffer: list[tuple[float, float, float, float, float]] = []
+        n_kept = 0
+
+        def flush() -> FlightRows:
+            a = np.asarray(buffer, dtype=np.float64).reshape(-1, 5)
+            buffer.clear()
+            return FlightRows(time_s=a[:, 0] * 1e-6, temperature_c=a[:, 4], accel=a[:, 1:4])
+
+        while True:
+            m = reader.recv_match(type=name)
+            if m is None:
+                break
+            if by_field:
+                seen.add(int(m.I))
+                if m.I != instance:
+                    continue
+            buffer.append((m.TimeUS, m.AccX, m.AccY, m.AccZ, m.T))
+            n_kept += 1
+            if len(buffer) == common.CHUNK_ROWS:
+                yield flush()
+        if buffer:
+            yield flush()
+        if n_kept == 0:
+            if by_field and instance not in seen:
+                found = ", ".join(str(k) for k in sorted(seen)) or "none"
+                raise ParameterError(
+                    f"{file}: no IMU instance {instance}; the log has instance(s) {found}"
+                )
+            raise _parse_error(file, 1, 1, f"no {name} message in the log", where=None)
+
+    return flight_session(
+        rows(),
+        file=file,
+        stream=f"IMU[{instance}]",
+        orientation=orientation,
+        rate_hz=rate_hz,
+        sensor=sensor,
+        serial=serial,
+        decimation_factor=decimation_factor,
+        min_count=min_count,
+        settle_s=settle_s,
+    )
