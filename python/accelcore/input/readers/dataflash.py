@@ -32,7 +32,7 @@ FIELDS = ("TimeUS", "AccX", "AccY", "AccZ", "T")
 
 
 def _stream_name(reader: Any, file: str, instance: int) -> tuple[str, bool]:
-    """The message type to read and whether it carries an instance field ``I``.
+    """Find the message type to read and whether it carries an instance field ``I``.
 
     ArduPilot 4.1 and later log every IMU as ``IMU`` with an instance field;
     older logs use ``IMU``, ``IMU2``, ``IMU3``.
@@ -125,9 +125,34 @@ def read_dataflash(
     try:
         reader = dfreader.DFReader_binary(file, zero_time_base=False)
     except Exception as exc:  # pymavlink raises struct.error, ValueError, KeyError...
-        raise _parse_error(
-            file, 1, 1, f"not a readable DataFlash log: {exc}", where=None
-        ) from None
+        raise _parse_error(file, 1, 1, f"not a readable DataFlash log: {exc}", where=None) from None
+    with reader:  # closes the file and its memory map
+        return _read(
+            reader,
+            file,
+            instance,
+            orientation,
+            rate_hz,
+            sensor,
+            serial,
+            decimation_factor,
+            min_count,
+            settle_s,
+        )
+
+
+def _read(
+    reader: Any,
+    file: str,
+    instance: int,
+    orientation: str,
+    rate_hz: float | None,
+    sensor: str | None,
+    serial: str | None,
+    decimation_factor: int,
+    min_count: int,
+    settle_s: float,
+) -> Session:
     name, by_field = _stream_name(reader, file, instance)
     seen: set[int] = set()
 

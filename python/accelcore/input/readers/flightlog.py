@@ -64,14 +64,13 @@ def check_orientation(orientation: str, who: str) -> str:
         gravity_of(orientation)
     except (SessionFormatError, AttributeError):
         raise ParameterError(
-            f"{who}: unknown orientation {orientation!r}; expected one of "
-            "OX+ OX- OY+ OY- OZ+ OZ-"
+            f"{who}: unknown orientation {orientation!r}; expected one of OX+ OX- OY+ OY- OZ+ OZ-"
         ) from None
     return orientation.strip().upper()
 
 
 def estimate_rate(time_s: _FloatArray) -> float:
-    """The log's sample rate, from the median interval between finite time stamps.
+    """Estimate the log's sample rate from the median interval between finite time stamps.
 
     Rounded to 6 significant digits, so that jitter in the last microsecond does
     not move the block grid from one log to the next.

@@ -94,7 +94,8 @@ def read_ulog(
     if magic != ULOG_MAGIC:
         raise _parse_error(file, 1, 1, "not a PX4 ULog file (no ULog header)", where=None)
     try:
-        ulog = pyulog.ULog(file, message_name_filter_list=[TOPIC])
+        with open(file, "rb") as handle:
+            ulog = pyulog.ULog(handle, message_name_filter_list=[TOPIC])
     except Exception as exc:  # pyulog raises ULogException, struct.error, ValueError...
         raise _parse_error(file, 1, 1, f"not a readable ULog file: {exc}", where=None) from None
     found = {d.multi_id: d for d in ulog.data_list if d.name == TOPIC}
