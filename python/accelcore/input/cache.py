@@ -3,13 +3,13 @@
 :func:`accelcore.load_session` streams every log through the Rust reader and
 hashes it (BLAKE3 by default, or SHA-256 on request, for provenance).
 Archived sessions are loaded again and again (calibrate, diagnose, report), so
-the reader's result for each run file is kept in one entry per file, under a key made of everything that changes
-that result: the file's resolved absolute path, every reader parameter
-(delimiter, column mapping, time scale, decimation factor, ``rate_hz``,
-``min_count``, extra columns), the accelcore version, the identity of the
-compiled extension and :data:`FORMAT`; the digest's algorithm is one of the
-parameters. An entry also holds the file's digest, its algorithm
-and the file's fingerprint ``(st_size, st_mtime_ns, st_ctime_ns, st_ino, st_dev)``.
+the reader's result for each run file is kept in one entry per file, under a
+key made of everything that changes that result: the file's resolved absolute
+path, every reader parameter (delimiter, column mapping, time scale,
+decimation factor, ``rate_hz``, ``min_count``, extra columns) and the digest's
+algorithm, the accelcore version, the identity of the compiled extension and
+:data:`FORMAT`. An entry also holds the file's digest, its algorithm and the
+file's fingerprint ``(st_size, st_mtime_ns, st_ctime_ns, st_ino, st_dev)``.
 
 Never stale
     An entry is used only when the file's fingerprint is the same now. Any
