@@ -167,7 +167,7 @@ def test_warm_hit_is_identical_to_a_cold_read(
     assert_identical(cold, first)
     assert_identical(cold, warm)
     assert warm.file_hashes() == cold.file_hashes()
-    assert len(warm.file_sha256) == 7
+    assert len(warm.file_digests) == 7
     # Everything downstream is the same too.
     assert_identical(
         accelcore.calibrate(cold, method="paper").to_dict(),
@@ -180,14 +180,14 @@ def test_entries_have_the_documented_layout_and_say_what_they_are(
 ) -> None:
     cold = load_session(aged["shared"], cache=False)
     load_session(aged["shared"], cache=tmp_path)
-    assert cache.FORMAT == 2 and cache.SUFFIX == ".acrun"
+    assert cache.FORMAT == 3 and cache.SUFFIX == ".acrun"
     by_source = {Path(str(run.source)).name: run for run in cold.runs}
     for entry in entries(tmp_path):
         meta, floats, ints = read_entry(entry)
         assert meta["format"] == cache.FORMAT and meta["accelcore"] == accelcore.__version__
         assert Path(meta["path"]).is_absolute() and meta["path"].endswith(".csv")
         assert meta["params"]["factor"] == 10 and meta["params"]["delimiter"] == ","
-        assert len(meta["fingerprint"]) == 5 and len(meta["sha256"]) == 64
+        assert len(meta["fingerprint"]) == 5 and len(meta["digest"]) == 64
         assert entry.name == f"{meta['key']}.acrun"
         # The vectors hold the arrays in the documented order.
         run = by_source[Path(meta["path"]).name]
@@ -219,7 +219,7 @@ def test_appending_a_row_is_a_miss_and_the_row_shows_up(
     after = load_session(folder, cache=store)
     assert after.runs[0].stats.n_rows == before.runs[0].stats.n_rows + 1
     assert after.runs[0].stats.duration_s == pytest.approx(180.0)
-    assert after.file_sha256["x_pos.csv"] != before.file_sha256["x_pos.csv"]
+    assert after.file_digests["x_pos.csv"] != before.file_digests["x_pos.csv"]
     assert_identical(after, load_session(folder, cache=False))
     # The other runs were hits and are unchanged.
     assert_identical(after.runs[1:], before.runs[1:])
@@ -242,7 +242,7 @@ def test_same_size_rewrite_with_the_old_mtime_is_a_miss(
     now = log.stat()
     assert (now.st_size, now.st_mtime_ns, now.st_ino) == (st.st_size, st.st_mtime_ns, st.st_ino)
     after = load_session(folder, cache=store)
-    assert after.file_sha256["y_neg.csv"] != before.file_sha256["y_neg.csv"]
+    assert after.file_digests["y_neg.csv"] != before.file_digests["y_neg.csv"]
     assert_identical(after, load_session(folder, cache=False))
     assert after.runs[3].output[0, 0] != before.runs[3].output[0, 0]
 
@@ -319,7 +319,7 @@ CORRUPTIONS: dict[str, Callable[[Path], object]] = {
     "other version": lambda e: _rewrite(e, meta={"accelcore": "0.0.0-other"}),
     "other key": lambda e: _rewrite(e, meta={"key": "0" * 64}),
     "bad fingerprint type": lambda e: _rewrite(e, meta={"fingerprint": "x"}),
-    "bad hash": lambda e: _rewrite(e, meta={"sha256": "not a hash"}),
+    "bad hash": lambda e: _rewrite(e, meta={"digest": "not a hash"}),
     "negative count": lambda e: _rewrite(e, meta={"n_rows": -1}),
     "wrong block count": lambda e: _rewrite(e, meta={"n_blocks": 3}),
     "no ints": lambda e: _rewrite(e, ints=np.zeros(0, np.int64)),
@@ -655,7 +655,7 @@ def test_a_new_column_mapping_is_a_miss(
     remapped = load_session(folder, cache=tmp_path)
     assert len(entries(tmp_path)) == 12
     np.testing.assert_array_equal(remapped.runs[0].output[:, 0], original.runs[0].output[:, 1])
-    assert remapped.file_sha256["session.toml"] != original.file_sha256["session.toml"]
+    assert remapped.file_digests["session.toml"] != original.file_digests["session.toml"]
     no_reading()
     assert_identical(load_session(folder, cache=tmp_path), remapped)
     toml.write_text(text)

@@ -193,7 +193,7 @@ def test_session_hashes_are_sha256_of_the_files(tmp_path: Path) -> None:
     from accelcore import simulate
 
     simulate.session(folder, duration_h=0.1, soak_min=1.0, seed=4)
-    session = accelcore.load_session(folder, cache=False)
+    session = accelcore.load_session(folder, cache=False, digest="sha256")
     expected = {
         f.name: hashlib.sha256(f.read_bytes()).hexdigest()
         for f in folder.iterdir()

@@ -73,7 +73,7 @@ def test_every_key_is_read(tmp_path: Path) -> None:
 
 def test_the_session_keeps_what_it_read(tmp_path: Path) -> None:
     folder = write(tmp_path / "s")
-    session = load_session(folder, decimation_factor=5, cache=False)
+    session = load_session(folder, decimation_factor=5, cache=False, digest="sha256")
     assert session.format == SessionFormat.read(folder)
     assert session.file_sha256["session.toml"] == session.format.sha256
     assert session.units == "LSB" and session.rate_hz == 50.0

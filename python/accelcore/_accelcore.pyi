@@ -471,8 +471,17 @@ class RunData:
     @property
     def n_at_max(self) -> NDArray[np.uint64]: ...
     @property
+    def digest(self) -> str | None:
+        """Hex digest of the bytes read, with ``read_run(..., digest=...)``; else None."""
+    @property
+    def digest_algorithm(self) -> str | None:
+        """``"blake3"`` or ``"sha256"``: the algorithm of :attr:`digest`; else None."""
+    @property
     def sha256(self) -> str | None:
-        """Hex SHA-256 of the bytes read, with ``read_run(..., sha256=True)``; else None."""
+        """Hex SHA-256 of the bytes read, when the digest asked for was SHA-256; else None.
+
+        ``read_run(..., sha256=True)`` is ``read_run(..., digest="sha256")``.
+        """
 
 @final
 class RawStats:
@@ -586,20 +595,44 @@ def read_run(
     rate_hz: float = 20.0,
     min_count: int = 1,
     sha256: bool = False,
+    digest: str | None = None,
 ) -> RunData:
     """Read one delimited log and decimate it on the fly; the file is never held whole.
 
     Channels are the required ``channel_columns`` then, with ``keep_extra_columns``,
     every other column. Errors name the file, the 1-based line and column. With
-    ``sha256``, the file's bytes are hashed as they are parsed (``RunData.sha256``):
-    the digest is that of exactly the bytes the result was read from.
+    ``digest`` (``"blake3"`` or ``"sha256"``), the file's bytes are hashed as they
+    are parsed (``RunData.digest``, ``RunData.digest_algorithm``): the digest is
+    that of exactly the bytes the result was read from. ``sha256=True`` is the
+    older spelling of ``digest="sha256"`` (``RunData.sha256``).
 
     Raises
     ------
+    accelcore.ParameterError
+        An unknown ``digest``, or ``sha256=True`` with another ``digest``.
     accelcore.ParseError
         Missing columns, a non-numeric cell, a wrong field count, time going backwards.
     accelcore.AccelcoreIOError
         The file cannot be opened or read.
+    """
+
+def digest_bytes(data: bytes, /, algorithm: str = "blake3") -> str:
+    """Return the hex digest of ``data`` in one shot, as :func:`read_run` takes it of a file.
+
+    Parameters
+    ----------
+    data : bytes
+    algorithm : {"blake3", "sha256"}, default "blake3"
+
+    Returns
+    -------
+    str
+        64 hex digits.
+
+    Raises
+    ------
+    accelcore.ParameterError
+        An unknown ``algorithm``.
     """
 
 def compensate(

@@ -559,7 +559,8 @@ def calibrate(
     provenance: dict[str, Any] = {
         "accelcore_version": __version__,
         "session_path": session.path,
-        "files_sha256": session.file_hashes(),
+        "digest": session.digest,
+        f"files_{session.digest}": session.file_hashes(),
     }
     if session.format is not None and session.format.lab:
         provenance["lab"] = dict(session.format.lab)

@@ -1,14 +1,15 @@
 """A persistent cache of decimated runs, so that re-loading a session is nearly free.
 
 :func:`accelcore.load_session` streams every log through the Rust reader and
-hashes it (SHA-256, for provenance). Archived sessions are loaded again and
-again (calibrate, diagnose, report), so the reader's result for each run file
-is kept in one entry per file, under a key made of everything that changes
-that result: the file's resolved absolute path, every reader parameter
-(delimiter, column mapping, time scale, decimation factor, ``rate_hz``,
-``min_count``, extra columns), the accelcore version, the identity of the
-compiled extension and :data:`FORMAT`. An entry also holds the file's SHA-256
-and its fingerprint ``(st_size, st_mtime_ns, st_ctime_ns, st_ino, st_dev)``.
+hashes it (BLAKE3 by default, or SHA-256 on request, for provenance).
+Archived sessions are loaded again and again (calibrate, diagnose, report), so
+the reader's result for each run file is kept in one entry per file, under a
+key made of everything that changes that result: the file's resolved absolute
+path, every reader parameter (delimiter, column mapping, time scale,
+decimation factor, ``rate_hz``, ``min_count``, extra columns) and the digest's
+algorithm, the accelcore version, the identity of the compiled extension and
+:data:`FORMAT`. An entry also holds the file's digest, its algorithm and the
+file's fingerprint ``(st_size, st_mtime_ns, st_ctime_ns, st_ino, st_dev)``.
 
 Never stale
     An entry is used only when the file's fingerprint is the same now. Any
@@ -233,7 +234,7 @@ class Probe:
     resolved : str
         Its resolved absolute path.
     params : dict
-        The reader parameters.
+        The reader parameters and ``"digest"``, the digest's algorithm.
     seen_at_ns : int
         Wall clock just before the fingerprint was taken, ns since the epoch.
     fingerprint : tuple of int
@@ -293,7 +294,7 @@ class RunCache:
         return None if directory is None else cls(directory)
 
     def lookup_all(
-        self, files: Sequence[Path], params: Mapping[str, Any]
+        self, files: Sequence[Path], params: Mapping[str, Any], digest: str = "blake3"
     ) -> list[tuple[tuple[RunRecord, str] | None, Probe | None]]:
         """Look run files up, just before they would be read.
 
@@ -306,14 +307,18 @@ class RunCache:
             The run files.
         params : mapping
             The reader parameters (see :func:`entry_key`), the same for all.
+        digest : {"blake3", "sha256"}, default "blake3"
+            The algorithm of the digest wanted: part of the key (an entry holds
+            one digest).
 
         Returns
         -------
         list of (hit, probe)
-            For each file: ``hit``, the reader's result and the file's SHA-256
+            For each file: ``hit``, the reader's result and the file's hex digest
             when the entry is valid (else None), and ``probe``, to pass to
             :meth:`store` after a miss (None: do not store).
         """
+        params = {**params, "digest": digest}
         probes: list[Probe | None] = []
         for file in files:
             try:
@@ -339,7 +344,7 @@ class RunCache:
             try:
                 if isinstance(content, Exception):
                     raise content
-                record, sha256, fingerprint = parse_entry(content, probe.key)
+                record, hexdigest, fingerprint = parse_entry(content, probe.key)
             except Exception:  # a bad entry of any kind is a miss, never an error; replace it
                 with contextlib.suppress(OSError):
                     entry.unlink()
@@ -349,10 +354,10 @@ class RunCache:
             with contextlib.suppress(OSError):
                 os.utime(entry)  # least recently used goes first when pruning
             self.n_hits += 1
-            results[j] = ((record, sha256), probe)
+            results[j] = ((record, hexdigest), probe)
         return results
 
-    def store(self, probe: Probe | None, record: RunRecord, sha256: str) -> bool:
+    def store(self, probe: Probe | None, record: RunRecord, hexdigest: str) -> bool:
         """Write the entry of a run file just read, if it is safe to.
 
         Skipped when the file changed less than :data:`RACY_WINDOW_NS` before
@@ -364,8 +369,9 @@ class RunCache:
             From :meth:`lookup_all`.
         record : RunRecord
             What the reader returned.
-        sha256 : str
-            The file's SHA-256, computed between the probe and now.
+        hexdigest : str
+            The file's digest (of the algorithm ``probe.params["digest"]``),
+            computed between the probe and now.
 
         Returns
         -------
@@ -405,7 +411,8 @@ class RunCache:
             "path": probe.resolved,
             "params": probe.params,
             "fingerprint": list(probe.fingerprint),
-            "sha256": sha256,
+            "digest": hexdigest,
+            "digest_algorithm": probe.params["digest"],
             "channel_names": list(record.channel_names),
             "n_blocks": n,
             "block_index": b.block_index is not None,

@@ -3,7 +3,7 @@
 :mod:`accelcore.input.cache` decides when an entry is used, written and
 removed; this module only knows the bytes.
 
-Entry layout (``<key>.acrun``, :data:`FORMAT` 2)
+Entry layout (``<key>.acrun``, :data:`FORMAT` 3)
     Everything little-endian::
 
         offset        size        content
@@ -32,7 +32,9 @@ Entry layout (``<key>.acrun``, :data:`FORMAT` 2)
     as a flipped bit or byte, and zeroed or overwritten blocks; it is no
     defence against deliberate edits. Entries of the earlier ``numpy.savez``
     format (``<key>.npz``, :data:`FORMAT` 1) are never read; :func:`prune`
-    and :func:`clear` remove them.
+    and :func:`clear` remove them. :data:`FORMAT` 2 held a SHA-256 under
+    ``"sha256"``; 3 holds ``"digest"`` and ``"digest_algorithm"`` (BLAKE3 by
+    default); a format 2 entry is a miss, replaced.
 
 May import: the foundation only.
 """
@@ -67,7 +69,9 @@ __all__ = [
 ]
 
 #: Version of the entry layout; part of every key, and checked on reading.
-FORMAT: Final = 2
+FORMAT: Final = 3
+#: The digests an entry may hold (``load_session(..., digest=...)``).
+DIGEST_ALGORITHMS: Final = ("blake3", "sha256")
 #: ``(st_size, st_mtime_ns, st_ctime_ns, st_ino, st_dev)``.
 Fingerprint: TypeAlias = tuple[int, int, int, int, int]
 #: First 8 bytes of an entry.
@@ -280,16 +284,17 @@ def parse_entry(buf: NDArray[np.uint8], key: str) -> tuple[RunRecord, str, Finge
         raise BadEntry("format")
     if meta.get("key") != key or meta.get("accelcore") != __version__:
         raise BadEntry("key")
-    fingerprint, sha256, names = meta["fingerprint"], meta["sha256"], meta["channel_names"]
+    fingerprint, digest, names = meta["fingerprint"], meta["digest"], meta["channel_names"]
     n, has_index = meta["n_blocks"], meta["block_index"]
     counts = [meta[k] for k in COUNTS]
     if not (
         isinstance(fingerprint, list)
         and len(fingerprint) == 5
         and all(type(v) is int for v in fingerprint)
-        and isinstance(sha256, str)
-        and len(sha256) == 64
-        and all(c in "0123456789abcdef" for c in sha256)
+        and meta["digest_algorithm"] in DIGEST_ALGORITHMS
+        and isinstance(digest, str)
+        and len(digest) == 64
+        and all(c in "0123456789abcdef" for c in digest)
         and isinstance(names, list)
         and all(isinstance(c, str) for c in names)
         and all(type(v) is int and v >= 0 for v in [n, *counts])
@@ -328,4 +333,4 @@ def parse_entry(buf: NDArray[np.uint8], key: str) -> tuple[RunRecord, str, Finge
         n_at_max=ints[i[3] :].view(np.uint64),
     )
     fp = (fingerprint[0], fingerprint[1], fingerprint[2], fingerprint[3], fingerprint[4])
-    return record, sha256, fp
+    return record, digest, fp

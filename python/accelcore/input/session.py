@@ -10,6 +10,7 @@ arrays or pandas DataFrames.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 from collections.abc import Mapping, Sequence
@@ -22,9 +23,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from accelcore import core
-from accelcore._accelcore import RunTally, read_run
+from accelcore._accelcore import RunTally, digest_bytes, read_run
 from accelcore.constants import AXES, ORIENTATIONS, SESSION_FORMAT
-from accelcore.errors import InsufficientDataError, ParameterError
+from accelcore.errors import AccelcoreIOError, InsufficientDataError, ParameterError
 from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
 from accelcore.input.consistency import check_labels, check_rate
 from accelcore.input.format import SessionFormat, check_units, gravity_of
@@ -33,6 +34,7 @@ from accelcore.input.run import Run, RunStats
 
 __all__ = [
     "AXES",
+    "DIGESTS",
     "FORMAT",
     "ORIENTATIONS",
     "Run",
@@ -44,6 +46,8 @@ __all__ = [
 ]
 
 FORMAT = SESSION_FORMAT
+#: Content digests :func:`load_session` can take of each file; the first is the default.
+DIGESTS: tuple[str, ...] = ("blake3", "sha256")
 
 
 @dataclass(frozen=True)
@@ -65,8 +69,11 @@ class Session:
         The session folder, when read from disk.
     decimation_factor : int
         Raw samples per block.
-    file_sha256 : dict of str to str
-        SHA-256 of ``session.toml`` and every run file, taken while reading them.
+    file_digests : dict of str to str
+        Hex digest of ``session.toml`` and every run file, taken while reading them.
+    digest : str
+        The algorithm of ``file_digests``: ``"blake3"`` (the default of
+        :func:`load_session`) or ``"sha256"``.
     format : SessionFormat or None
         What ``session.toml`` says (delimiter, columns, time unit, run files...),
         when read from disk; None for :meth:`from_arrays` and the other readers.
@@ -79,8 +86,14 @@ class Session:
     serial: str | None = None
     path: str | None = None
     decimation_factor: int = 10
-    file_sha256: dict[str, str] = field(default_factory=dict)
+    file_digests: dict[str, str] = field(default_factory=dict)
     format: SessionFormat | None = None
+    digest: str = DIGESTS[0]
+
+    @property
+    def file_sha256(self) -> dict[str, str]:
+        """SHA-256 of every file when the session was read with ``digest="sha256"``; else empty."""
+        return dict(self.file_digests) if self.digest == "sha256" else {}
 
     @property
     def orientations(self) -> tuple[str, ...]:
@@ -127,11 +140,12 @@ class Session:
         check_labels(self.runs, self.units, self.sensor, where)
 
     def file_hashes(self) -> dict[str, str]:
-        """SHA-256 of ``session.toml`` and every run file, for provenance.
+        """Digest of ``session.toml`` and every run file, for provenance.
 
-        Computed while the session was read (the files as they were then).
+        Computed while the session was read (the files as they were then), with
+        the algorithm :attr:`digest` names.
         """
-        return dict(self.file_sha256)
+        return dict(self.file_digests)
 
     @classmethod
     def from_arrays(
@@ -294,6 +308,7 @@ def load_session(
     decimation_factor: int = 10,
     min_count: int = 1,
     cache: CacheSetting = True,
+    digest: str = DIGESTS[0],
 ) -> Session:
     """Read a session folder, streaming every log through the Rust reader and decimator.
 
@@ -310,6 +325,9 @@ def load_session(
         folder, ``$ACCELCORE_CACHE_DIR``, else ``$XDG_CACHE_HOME/accelcore/runs``,
         else ``~/.cache/accelcore/runs`` (off when ``ACCELCORE_CACHE=0``); a
         path: that folder; False: never read or write a cache.
+    digest : {"blake3", "sha256"}, default "blake3"
+        The content digest of every file (:attr:`Session.file_digests`, the
+        calibration's provenance), taken in the reader's parsing pass.
 
     Returns
     -------
@@ -333,10 +351,10 @@ def load_session(
 
     Notes
     -----
-    With the cache, the decimated blocks, reader statistics and SHA-256 of each
+    With the cache, the decimated blocks, reader statistics and digest of each
     run file are kept, keyed by the file's resolved path, every reader parameter
     (``session.toml``'s delimiter, columns and time unit, ``rate_hz``,
-    ``decimation_factor``, ``min_count``) and the accelcore version. An entry is
+    ``decimation_factor``, ``min_count``, ``digest``) and the accelcore version. An entry is
     used only while the file's size, mtime, ctime, inode and device are
     unchanged, so a repeat load of an archived session skips parsing and
     hashing and gives an identical :class:`Session`. Files changed less than
@@ -344,6 +362,8 @@ def load_session(
     and hashed.
     """
     _check_read_options(decimation_factor, min_count)
+    if digest not in DIGESTS:
+        raise _parameter("digest", f"must be one of {', '.join(DIGESTS)}, got {digest!r}")
     fmt = SessionFormat.read(path)
     params: _ReadParams = {
         "delimiter": fmt.separator,
@@ -358,16 +378,16 @@ def load_session(
     }
 
     def read(file: Path) -> tuple[RunRecord, str]:
-        data = read_run(str(file), sha256=True, **params)
-        assert data.sha256 is not None  # asked for
-        return RunRecord.from_run_data(data), data.sha256
+        data = read_run(str(file), digest=digest, **params)
+        assert data.digest is not None  # asked for
+        return RunRecord.from_run_data(data), data.digest
 
     run_files = list(fmt.run_files)
     store = RunCache.open(cache)
     found: list[tuple[RunRecord, str] | None] = [None] * len(run_files)
     probes: list[Probe | None] = [None] * len(run_files)
     if store is not None:
-        for i, (hit, probe) in enumerate(store.lookup_all(run_files, params)):
+        for i, (hit, probe) in enumerate(store.lookup_all(run_files, params, digest)):
             found[i], probes[i] = hit, probe
     missing = [i for i, hit in enumerate(found) if hit is None]
     if len(missing) > 1:
@@ -379,13 +399,13 @@ def load_session(
         records = [read(run_files[i]) for i in missing]
     fresh = dict(zip(missing, records, strict=True))
     if store is not None:
-        for i, (rec, sha) in fresh.items():
-            store.store(probes[i], rec, sha)  # only if the file did not change meanwhile
+        for i, (rec, hexdigest) in fresh.items():
+            store.store(probes[i], rec, hexdigest)  # only if the file did not change meanwhile
         store.finish()
     runs = []
-    file_sha256 = {fmt.toml_path.name: fmt.sha256}
+    file_digests = {fmt.toml_path.name: _toml_digest(fmt, digest)}
     for i, spec in enumerate(fmt.runs):
-        data, file_sha256[spec.path.name] = found[i] or fresh[i]
+        data, file_digests[spec.path.name] = found[i] or fresh[i]
         stats = RunStats(
             n_rows=data.n_rows,
             n_skipped_nonfinite=data.n_skipped_nonfinite,
@@ -416,6 +436,20 @@ def load_session(
         serial=fmt.serial,
         path=str(fmt.folder),
         decimation_factor=decimation_factor,
-        file_sha256=file_sha256,
+        file_digests=file_digests,
         format=fmt,
+        digest=digest,
     )
+
+
+def _toml_digest(fmt: SessionFormat, digest: str) -> str:
+    """Return the digest of ``session.toml`` as parsed (``fmt.sha256`` says which bytes)."""
+    if digest == "sha256":
+        return fmt.sha256
+    try:
+        data = fmt.toml_path.read_bytes()  # a few hundred bytes, read again
+    except OSError as exc:
+        raise AccelcoreIOError(f"{fmt.toml_path}: cannot be read: {exc}") from exc
+    if hashlib.sha256(data).hexdigest() != fmt.sha256:
+        raise AccelcoreIOError(f"{fmt.toml_path}: changed while the session was read")
+    return digest_bytes(data, digest)

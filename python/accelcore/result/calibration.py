@@ -210,7 +210,10 @@ class Calibration:
     options : dict
         Every option used, for reproducibility.
     provenance : dict
-        accelcore version and SHA-256 of the input files.
+        accelcore version, the digest's algorithm (``"digest"``: ``"blake3"``,
+        or ``"sha256"``) and the digests of the input files (``"files_blake3"``
+        or ``"files_sha256"``; files written before the algorithm was recorded
+        hold ``"files_sha256"`` only). :meth:`file_digests` reads either.
     """
 
     method: str
@@ -416,6 +419,21 @@ class Calibration:
             "provenance": dict(self.provenance),
         }
 
+    def file_digests(self) -> tuple[str, dict[str, str]]:
+        """Return the input files' digests recorded in the provenance, and their algorithm.
+
+        Returns
+        -------
+        algorithm : str
+            ``"blake3"`` or ``"sha256"`` (files without a ``"digest"`` entry,
+            written before BLAKE3, hold SHA-256).
+        files : dict of str to str
+            File name to hex digest; empty for a session built in memory.
+        """
+        algorithm = str(self.provenance.get("digest", "sha256"))
+        files = self.provenance.get(f"files_{algorithm}") or {}
+        return algorithm, {str(k): str(v) for k, v in dict(files).items()}
+
     def save(self, path: str | Path) -> None:
         """Write a versioned JSON file (atomically: temporary name, then rename).
 
@@ -430,7 +448,7 @@ class Calibration:
             was fitted on (:func:`accelcore.files.check_outputs`).
         """
         folder = self.provenance.get("session_path")
-        files = self.provenance.get("files_sha256") or {}
+        _, files = self.file_digests()
         if folder:
             check_outputs([Path(folder) / name for name in files], [path])
         body = self.to_dict()

@@ -35,8 +35,8 @@ pub use error::{Error, Result};
 pub use features::first_order_lag;
 pub use heldout::{BlockedLeastSquares, FoldedLeastSquares, HeldOutFit};
 pub use reader::{
-    merge_runs, plan_split, read_run, read_run_from, read_run_hashed, read_run_range, CsvFormat,
-    RunData, SplitPlan,
+    merge_runs, plan_split, read_run, read_run_digest, read_run_from, read_run_hashed,
+    read_run_range, CsvFormat, DigestAlgorithm, RunData, SplitPlan,
 };
 pub use regression::{LeastSquares, LstsqSolution};
 pub use robust::running_median;

@@ -6,8 +6,8 @@ use std::io::Write;
 use sha2::Digest;
 
 use accelcore_core::{
-    merge_runs, plan_split, read_run, read_run_hashed, read_run_range, CsvFormat, DecimatorConfig,
-    Error,
+    merge_runs, plan_split, read_run, read_run_digest, read_run_hashed, read_run_range, CsvFormat,
+    DecimatorConfig, DigestAlgorithm, Error,
 };
 
 fn write_log(rows: usize, nan_every: usize, gap_at: usize) -> tempfile_path::TempLog {
@@ -205,6 +205,75 @@ fn hashed_read_is_the_plain_read_and_the_files_sha256() {
     );
     let whole = sha2::Sha256::digest(std::fs::read(&log.0).unwrap());
     assert_eq!(digest, <[u8; 32]>::from(whole));
+}
+
+#[test]
+fn blake3_read_is_the_plain_read_and_the_files_blake3() {
+    let config = DecimatorConfig::default();
+    let blake3 = DigestAlgorithm::Blake3;
+    assert_eq!(DigestAlgorithm::default(), blake3);
+    // A last line cut off mid-write: dropped from the data, but part of the file's
+    // bytes. The digest is `b3sum`'s of the same bytes (the reference implementation).
+    let cut = tempfile_path::TempLog::new(
+        "time_s,temp_c,x,y,z\n0.00,20.0,1,2,3\n0.05,20.0,1,2,3\n0.10,20.1,1,2",
+    );
+    let (run, digest) =
+        read_run_digest(&cut.0, &CsvFormat::default(), config.clone(), blake3).unwrap();
+    assert_eq!(run.n_truncated_rows, 1);
+    assert_eq!(
+        run,
+        read_run(&cut.0, &CsvFormat::default(), config.clone()).unwrap()
+    );
+    assert_eq!(
+        hex(&digest),
+        "f23ac4630b5adfb38dfd526ed1859513db6ebd46b2765abc0120dea164361096"
+    );
+    assert_eq!(
+        hex(&blake3.digest(b"")),
+        "af1349b9f5f9a1a6a0404dea36dcc9499bcb25c9adc112b7cc9a93cae41f3262"
+    );
+    // 120k rows (about 6 MB) span several fills of the reader's 1 MiB buffer: every
+    // byte is hashed once, in order, as the crate's one-shot `blake3::hash` says.
+    let log = write_log(120_000, 11, 30_000);
+    let bytes = std::fs::read(&log.0).unwrap();
+    assert!(bytes.len() > 5 << 20, "{}", bytes.len());
+    let (run, digest) =
+        read_run_digest(&log.0, &CsvFormat::default(), config.clone(), blake3).unwrap();
+    assert_eq!(
+        run,
+        read_run(&log.0, &CsvFormat::default(), config.clone()).unwrap()
+    );
+    assert_eq!(digest, *blake3::hash(&bytes).as_bytes());
+    assert_eq!(digest, blake3.digest(&bytes));
+    // SHA-256 on request is the older entry point's digest.
+    let (_, sha) = read_run_digest(
+        &log.0,
+        &CsvFormat::default(),
+        config.clone(),
+        DigestAlgorithm::Sha256,
+    )
+    .unwrap();
+    assert_eq!(
+        sha,
+        read_run_hashed(&log.0, &CsvFormat::default(), config)
+            .unwrap()
+            .1
+    );
+    assert_eq!(sha, <[u8; 32]>::from(sha2::Sha256::digest(&bytes)));
+}
+
+#[test]
+fn digest_names_round_trip() {
+    for algorithm in [DigestAlgorithm::Blake3, DigestAlgorithm::Sha256] {
+        assert_eq!(
+            DigestAlgorithm::from_name(algorithm.name()).unwrap(),
+            algorithm
+        );
+    }
+    assert!(matches!(
+        DigestAlgorithm::from_name("md5"),
+        Err(Error::InvalidParameter { name: "digest", .. })
+    ));
 }
 
 #[test]

@@ -27,8 +27,8 @@ mod _accelcore {
     use super::heldout::{PyBlockedLeastSquares, PyFoldedLeastSquares, PyHeldOutFit};
     #[pymodule_export]
     use super::reader::{
-        py_merge_runs, py_plan_split, py_read_run, py_read_run_range, py_run_from_state,
-        PyRawStats, PyRunData, PyRunTally,
+        py_digest_bytes, py_merge_runs, py_plan_split, py_read_run, py_read_run_range,
+        py_run_from_state, PyRawStats, PyRunData, PyRunTally,
     };
     #[pymodule_export]
     use super::regression::{PyLeastSquares, PyLstsqSolution};

@@ -4,8 +4,8 @@
 use std::path::PathBuf;
 
 use accelcore_core::{
-    merge_runs, plan_split, read_run, read_run_hashed, read_run_range, ChannelRange, CsvFormat,
-    DecimatorConfig, RawStats, RunData, RunTally,
+    merge_runs, plan_split, read_run, read_run_digest, read_run_range, ChannelRange, CsvFormat,
+    DecimatorConfig, DigestAlgorithm, RawStats, RunData, RunTally,
 };
 use numpy::{IntoPyArray, PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
@@ -159,8 +159,10 @@ pub(crate) struct PyRunData {
     channel_max: Py<PyArray1<f64>>,
     n_at_min: Py<PyArray1<u64>>,
     n_at_max: Py<PyArray1<u64>>,
-    /// Hex SHA-256 of the bytes read, when `read_run(..., sha256=True)` asked for it.
-    sha256: Option<String>,
+    /// Hex digest of the bytes read, when `read_run(..., digest=...)` asked for it.
+    digest: Option<String>,
+    /// Its algorithm (`"blake3"` or `"sha256"`), when a digest was asked for.
+    digest_algorithm: Option<String>,
 }
 
 impl PyRunData {
@@ -195,6 +197,15 @@ impl PyRunData {
 
 #[pymethods]
 impl PyRunData {
+    /// Hex SHA-256 of the bytes read, when the digest asked for was SHA-256; else None.
+    #[getter]
+    fn sha256(&self) -> Option<String> {
+        match self.digest_algorithm.as_deref() {
+            Some("sha256") => self.digest.clone(),
+            _ => None,
+        }
+    }
+
     /// Pickle support, so pieces read on Dask workers come back to the client.
     fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let rebuild = py
@@ -217,7 +228,7 @@ impl PyRunData {
                 self.n_at_min.clone_ref(py),
                 self.n_at_max.clone_ref(py),
             ),
-            self.sha256.clone(),
+            self.digest_algorithm.clone().zip(self.digest.clone()),
         );
         Ok((rebuild, (state,).into_pyobject(py)?.into_any()))
     }
@@ -230,13 +241,13 @@ type RunState<'py> = (
     (u64, u64, u64, u64),
     (f64, f64, f64),
     (Vec<f64>, Vec<f64>, Vec<u64>, Vec<u64>),
-    Option<String>,
+    Option<(String, String)>,
 );
 
 /// Rebuild `RunData` from `__reduce__`'s state.
 #[pyfunction(name = "_run_from_state")]
 pub(crate) fn py_run_from_state(py: Python<'_>, state: RunState<'_>) -> PyResult<PyRunData> {
-    let (header, channel_names, blocks, counts, times, ranges, sha256) = state;
+    let (header, channel_names, blocks, counts, times, ranges, digest) = state;
     let channel_ranges = (0..ranges.0.len())
         .map(|i| ChannelRange {
             min: ranges.0[i],
@@ -258,10 +269,16 @@ pub(crate) fn py_run_from_state(py: Python<'_>, state: RunState<'_>) -> PyResult
         max_interval_s: times.2,
         channel_ranges,
     };
-    run_to_py(py, run, sha256)
+    run_to_py(py, run, digest)
 }
 
-fn run_to_py(py: Python<'_>, run: RunData, sha256: Option<String>) -> PyResult<PyRunData> {
+/// `digest`: `(algorithm, hex)` when one was taken.
+fn run_to_py(
+    py: Python<'_>,
+    run: RunData,
+    digest: Option<(String, String)>,
+) -> PyResult<PyRunData> {
+    let (digest_algorithm, digest) = digest.unzip();
     let (channel_min, channel_max, n_at_min, n_at_max) = ranges_to_py(py, &run.channel_ranges);
     Ok(PyRunData {
         blocks: Py::new(py, blocks_to_py(py, run.blocks)?)?,
@@ -278,7 +295,8 @@ fn run_to_py(py: Python<'_>, run: RunData, sha256: Option<String>) -> PyResult<P
         channel_max,
         n_at_min,
         n_at_max,
-        sha256,
+        digest,
+        digest_algorithm,
     })
 }
 
@@ -318,7 +336,7 @@ fn csv_format(
     path, /, *, delimiter = ",", time_column = "time_s", temperature_column = "temp_c",
     channel_columns = vec!["x".to_string(), "y".to_string(), "z".to_string()],
     keep_extra_columns = true, time_scale_to_s = 1.0, factor = 10, rate_hz = 20.0, min_count = 1,
-    sha256 = false
+    sha256 = false, digest = None
 ))]
 pub(crate) fn py_read_run(
     py: Python<'_>,
@@ -333,7 +351,26 @@ pub(crate) fn py_read_run(
     rate_hz: f64,
     min_count: i64,
     sha256: bool,
+    digest: Option<&str>,
 ) -> PyResult<PyRunData> {
+    let algorithm = match (digest.map(DigestAlgorithm::from_name).transpose(), sha256) {
+        (Err(e), _) => return Err(crate::errors::CoreError(e).into()),
+        (Ok(None), false) => None,
+        (Ok(None | Some(DigestAlgorithm::Sha256)), true) => Some(DigestAlgorithm::Sha256),
+        (Ok(Some(algorithm)), false) => Some(algorithm),
+        (Ok(Some(other)), true) => {
+            return Err(
+                crate::errors::CoreError(accelcore_core::Error::InvalidParameter {
+                    name: "digest",
+                    reason: format!(
+                        "sha256=True asks for SHA-256, but digest={:?} was given",
+                        other.name()
+                    ),
+                })
+                .into(),
+            )
+        }
+    };
     let format = csv_format(
         delimiter,
         time_column,
@@ -349,20 +386,38 @@ pub(crate) fn py_read_run(
         min_count: count("min_count", min_count)?,
         t0_s: None,
     };
-    if sha256 {
-        let (run, digest) = run_detached(py, || read_run_hashed(&path, &format, config))?;
-        let hex = digest.iter().fold(String::with_capacity(64), |mut hex, b| {
-            hex.push(char::from(HEX_DIGITS[usize::from(b >> 4)]));
-            hex.push(char::from(HEX_DIGITS[usize::from(b & 15)]));
-            hex
-        });
-        return run_to_py(py, run, Some(hex));
+    if let Some(algorithm) = algorithm {
+        let (run, digest) =
+            run_detached(py, || read_run_digest(&path, &format, config, algorithm))?;
+        return run_to_py(
+            py,
+            run,
+            Some((algorithm.name().to_string(), to_hex(&digest))),
+        );
     }
     let run = run_detached(py, || read_run(&path, &format, config))?;
     run_to_py(py, run, None)
 }
 
 const HEX_DIGITS: &[u8; 16] = b"0123456789abcdef";
+
+fn to_hex(digest: &[u8; 32]) -> String {
+    digest.iter().fold(String::with_capacity(64), |mut hex, b| {
+        hex.push(char::from(HEX_DIGITS[usize::from(b >> 4)]));
+        hex.push(char::from(HEX_DIGITS[usize::from(b & 15)]));
+        hex
+    })
+}
+
+/// The hex digest of `data` in one shot (`"blake3"` or `"sha256"`): for files read
+/// whole elsewhere (`session.toml`), so that every file of a session carries a
+/// digest of the same algorithm.
+#[pyfunction(name = "digest_bytes")]
+#[pyo3(signature = (data, /, algorithm = "blake3"))]
+pub(crate) fn py_digest_bytes(data: &[u8], algorithm: &str) -> PyResult<String> {
+    let algorithm = DigestAlgorithm::from_name(algorithm).map_err(crate::errors::CoreError)?;
+    Ok(to_hex(&algorithm.digest(data)))
+}
 
 /// `(ranges, t0_s)` of a split plan, as Python receives it.
 type SplitPlanTuple = (Vec<(u64, u64)>, Option<f64>);

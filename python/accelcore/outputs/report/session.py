@@ -184,8 +184,8 @@ def _notes_section(cal: Calibration, diag: Diagnosis | None) -> str:
 
 def _provenance_section(session: Session, cal: Calibration) -> str:
     prov = cal.provenance
-    hashes = prov.get("files_sha256") or {}
-    rows = [{"file": k, "sha256": v} for k, v in sorted(hashes.items())]
+    algorithm, hashes = cal.file_digests()
+    rows = [{"file": k, algorithm: v} for k, v in sorted(hashes.items())]
     opts = ", ".join(f"{k}={v}" for k, v in sorted(cal.options.items()))
     lines = [
         f"<p>accelcore {escape(__version__)} (calibration written by "
@@ -194,7 +194,7 @@ def _provenance_section(session: Session, cal: Calibration) -> str:
         f"<p>Session folder: <code>{escape(session.path or 'in memory')}</code></p>",
     ]
     if rows:
-        lines.append(table(["file", "sha256"], rows))
+        lines.append(table(["file", algorithm], rows))
     else:
         lines.append(note("No input file hashes (the session was built in memory)."))
     return "\n".join(lines)
