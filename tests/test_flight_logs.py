@@ -245,3 +245,26 @@ def test_missing_optional_dependency(
     monkeypatch.setitem(sys.modules, module, None)  # import raises ImportError
     with pytest.raises(AccelcoreError, match=rf"needs .*: pip install accelcore\[{extra}\]$"):
         read(sweep_ulg)  # type: ignore[operator]
+
+
+@pytest.mark.parametrize("kind", ["ulog", "dataflash"])
+def test_the_command_line_takes_a_flight_log_in_place_of_a_session(
+    kind: str, sweep_ulg: Path, sweep_bin: Path, tmp_path: Path
+) -> None:
+    import io
+    import json
+
+    from accelcore.apps.cli import main
+
+    log = sweep_ulg if kind == "ulog" else sweep_bin
+    before = log.read_bytes()
+    out = io.StringIO()
+    code = main(["calibrate", str(log), "--window", "15", "65", "--json", "-"], stdout=out)
+    assert code == 0, out.getvalue()
+    body = json.loads(out.getvalue())["result"]
+    z = next(r for r in body["summary"] if r["axis"] == "z")
+    # The sweep's z offset moves 2 mm/s² per °C: 0.002 / 9.80665 g = 0.2039 mg/°C, with
+    # float32 samples (rounding ~1e-6 m/s²) over 400 block means: the fit is exact to 1e-3.
+    assert z["offset_tc_mg_per_c"] == pytest.approx(2.0 / 9.80665, rel=1e-3)
+    assert main(["calibrate", str(log), "--json", str(log)], stdout=io.StringIO()) == 2
+    assert log.read_bytes() == before

@@ -41,6 +41,7 @@ from accelcore.errors import (
 from accelcore.files import atomic_open, check_outputs
 from accelcore.input.format import SessionFormat
 from accelcore.input.quality import check_session
+from accelcore.input.readers import read_dataflash, read_ulog
 from accelcore.input.session import Session
 from accelcore.outputs import exports
 from accelcore.outputs.report import fleet_report, is_bulk_output, session_report
@@ -72,6 +73,27 @@ class UsageError(Exception):
     """A usage problem found after parsing (exit status 2)."""
 
 
+#: Flight-stack logs a command takes in place of a session folder, by file suffix.
+_FLIGHT_LOGS = {".ulg": read_ulog, ".bin": read_dataflash}
+
+
+def _flight_log(path: str | Path) -> bool:
+    p = Path(path)
+    return p.suffix.lower() in _FLIGHT_LOGS and not p.is_dir()
+
+
+def _session_inputs(path: str | Path) -> tuple[Path, ...]:
+    """Files a command reads from a session argument (a folder, or one flight log)."""
+    return (Path(path),) if _flight_log(path) else SessionFormat.input_files(path)
+
+
+def _open_session(path: str | Path, *, cache: bool) -> Session:
+    """Open a session folder, or a PX4 ULog / ArduPilot DataFlash log (first IMU instance)."""
+    if _flight_log(path):
+        return _FLIGHT_LOGS[Path(path).suffix.lower()](path)
+    return accelcore.load_session(path, cache=cache)
+
+
 def _guard(inputs: Iterable[str | Path], outputs: Iterable[str | Path | None]) -> None:
     """Before reading anything: no output may alias an input, and every output's folder exists.
 
@@ -97,8 +119,8 @@ def cmd_calibrate(args: argparse.Namespace, out: TextIO) -> int:
     """``accelcore calibrate``: summary, datasheet comparison, ``--save`` and ``--json``."""
     if not args.window[0] < args.window[1]:
         raise UsageError(f"--window LO HI needs LO < HI, got {args.window[0]:g} {args.window[1]:g}")
-    _guard(SessionFormat.input_files(args.session), [args.save, args.json])
-    session = accelcore.load_session(args.session, cache=not args.no_cache)
+    _guard(_session_inputs(args.session), [args.save, args.json])
+    session = _open_session(args.session, cache=not args.no_cache)
     quality = _check_quality(session)
     cal = accelcore.calibrate(
         session, args.method, t_ref_c=args.t_ref, window_c=(args.window[0], args.window[1])
@@ -299,8 +321,8 @@ def cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
         diagnosis = importlib.import_module("accelcore.diagnosis")
     except ImportError as exc:
         raise UsageError(f"diagnosis is not available in this installation ({exc})") from exc
-    _guard(SessionFormat.input_files(args.session), [args.json])
-    session = accelcore.load_session(args.session, cache=not args.no_cache)
+    _guard(_session_inputs(args.session), [args.json])
+    session = _open_session(args.session, cache=not args.no_cache)
     quality = _check_quality(session)
     result = diagnosis.diagnose(session)
     if args.json:
@@ -367,7 +389,7 @@ def cmd_report(args: argparse.Namespace, out: TextIO) -> int:
     src = Path(args.path)
     page_file = Path(args.output or src) / "index.html"
     if (src / "session.toml").is_file():
-        check_outputs(SessionFormat.input_files(src), [page_file])
+        check_outputs(_session_inputs(src), [page_file])
     else:
         fleet = [src / n for n in ("fleet.csv", "fleet.parquet", "failures.csv")]
         check_outputs(fleet, [page_file])
@@ -377,7 +399,7 @@ def cmd_report(args: argparse.Namespace, out: TextIO) -> int:
         elif (src / "session.toml").is_file():
             if args.output is None:
                 raise UsageError("a session report needs -o DIR")
-            page = session_report(accelcore.load_session(src, cache=not args.no_cache), args.output)
+            page = session_report(_open_session(src, cache=not args.no_cache), args.output)
         elif not src.is_dir():
             raise CliDataError(f"{src}: no such folder")
         else:

@@ -118,7 +118,11 @@ def build_parser() -> argparse.ArgumentParser:
         )
 
     p = add("calibrate", "calibrate a session: summary and datasheet comparison")
-    p.add_argument("session", metavar="SESSION", help="session folder (holding session.toml)")
+    p.add_argument(
+        "session",
+        metavar="SESSION",
+        help="session folder (holding session.toml), or a PX4 .ulg / ArduPilot .bin log",
+    )
     p.add_argument("--method", choices=("joint", "paper"), default="joint", help="default: joint")
     p.add_argument("--t-ref", type=_window, default=25.0, metavar="C", help="default: 25 °C")
     p.add_argument(
@@ -175,7 +179,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=commands.cmd_export, data_path="calibration")
 
     p = add("diagnose", "calibrate and diagnose what the model still gets wrong")
-    p.add_argument("session", metavar="SESSION", help="session folder (holding session.toml)")
+    p.add_argument(
+        "session",
+        metavar="SESSION",
+        help="session folder (holding session.toml), or a PX4 .ulg / ArduPilot .bin log",
+    )
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
     _add_no_cache(p)
     p.set_defaults(func=commands.cmd_diagnose, data_path="session")
