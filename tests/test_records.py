@@ -33,6 +33,7 @@ def _session(parts: list[tuple[str, dict[str, np.ndarray]]]) -> Session:
 
 def test_contiguous_pieces_join_into_the_whole_log() -> None:
     log = _log(1000.0, 4000, 1)
+    log["x"] = np.clip(log["x"], -0.01, 0.01)  # a rail, reached in both pieces
     whole = _session([("OZ+", log)])
     cut = _session([("OZ+", p) for p in _cut(log, 1234)])
     (joined,) = records(cut)
@@ -41,6 +42,9 @@ def test_contiguous_pieces_join_into_the_whole_log() -> None:
     np.testing.assert_array_equal(joined.count, whole.runs[0].count)
     assert joined.stats.n_rows == whole.runs[0].stats.n_rows
     np.testing.assert_array_equal(joined.stats.channel_max, whole.runs[0].stats.channel_max)
+    np.testing.assert_array_equal(joined.stats.channel_min, whole.runs[0].stats.channel_min)
+    np.testing.assert_array_equal(joined.stats.n_at_max, whole.runs[0].stats.n_at_max)
+    np.testing.assert_array_equal(joined.stats.n_at_min, whole.runs[0].stats.n_at_min)
 
 
 @pytest.mark.parametrize(

@@ -43,9 +43,26 @@ def _continues(prev: Run, nxt: Run) -> bool:
 
 
 def _stats(parts: Sequence[Run]) -> RunStats:
+    """Return what the reader saw over the joined pieces: sums, extremes, counts at them."""
     first = parts[0].stats
-    lo = [p.stats.channel_min for p in parts if p.stats.channel_min.size]
-    hi = [p.stats.channel_max for p in parts if p.stats.channel_max.size]
+    ranged = [p.stats for p in parts if p.stats.channel_min.size]
+    extremes: dict[str, object] = {}
+    if ranged:
+        lo = np.min([s.channel_min for s in ranged], axis=0)
+        hi = np.max([s.channel_max for s in ranged], axis=0)
+        extremes = {
+            "channel_min": lo,
+            "channel_max": hi,
+            # Samples at the joined extreme: those of every piece whose extreme it is.
+            "n_at_min": sum(
+                (np.where(s.channel_min == lo, s.n_at_min, 0) for s in ranged),
+                np.zeros(lo.size, dtype=np.uint64),
+            ).astype(np.uint64),
+            "n_at_max": sum(
+                (np.where(s.channel_max == hi, s.n_at_max, 0) for s in ranged),
+                np.zeros(hi.size, dtype=np.uint64),
+            ).astype(np.uint64),
+        }
     return dataclasses.replace(
         first,
         n_rows=sum(p.stats.n_rows for p in parts),
@@ -54,8 +71,7 @@ def _stats(parts: Sequence[Run]) -> RunStats:
         n_gaps=sum(p.stats.n_gaps for p in parts),
         max_interval_s=max(p.stats.max_interval_s for p in parts),
         duration_s=float(parts[-1].time_s[-1] - parts[0].time_s[0]),
-        channel_min=np.min(lo, axis=0) if lo else first.channel_min,
-        channel_max=np.max(hi, axis=0) if hi else first.channel_max,
+        **extremes,  # type: ignore[arg-type]
     )
 
 

@@ -59,7 +59,7 @@
 use std::borrow::Cow;
 
 use crate::error::{Error, Result};
-use crate::regression::LeastSquares;
+use crate::regression::{first_invalid, LeastSquares};
 use ndarray::{ArrayView2, Axis, Slice};
 
 /// Per-block least-squares factors of one design and one or more responses.
@@ -232,36 +232,14 @@ impl BlockedLeastSquares {
             });
         }
         // Validate every value before touching any factor (a chunk is all or nothing):
-        // a branch-free screen of contiguous input first, the offending row only if it fails.
+        // a branch-free screen of contiguous input first, the offending row only if it
+        // fails, with the same check and errors as `LeastSquares::push`.
         let all_finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
-        for (what, values) in [("design", design), ("response", responses)] {
-            if values.as_slice().is_some_and(all_finite) {
-                continue;
-            }
-            for (i, row) in values.outer_iter().enumerate() {
-                if let Some(j) = row.iter().position(|v| !v.is_finite()) {
-                    return Err(Error::NonFinite {
-                        what,
-                        row: i as u64,
-                        column: j,
-                    });
-                }
-            }
-        }
-        if let Some(w) = weights {
-            if let Some(i) = w.iter().position(|v| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: "weights",
-                    row: i as u64,
-                    column: 0,
-                });
-            }
-            if let Some(i) = w.iter().position(|&v| v < 0.0) {
-                return Err(Error::InvalidParameter {
-                    name: "weights",
-                    reason: format!("row {i}: weight {} is negative", w[i]),
-                });
-            }
+        let screened = design.as_slice().is_some_and(all_finite)
+            && responses.as_slice().is_some_and(all_finite)
+            && weights.is_none_or(|w| w.iter().all(|&v| v.is_finite() && v >= 0.0));
+        if !screened {
+            first_invalid(design, responses, weights, 0)?;
         }
         let mut start = 0;
         while start < n {

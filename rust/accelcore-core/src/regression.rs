@@ -323,7 +323,7 @@ impl LeastSquares {
         };
         if let (Some(xs), Some(ys)) = (design.as_slice(), responses.as_slice()) {
             if !(all_finite(xs) && all_finite(ys) && weights_ok) {
-                self.first_invalid(design, responses, weights)?;
+                first_invalid(design, responses, weights, self.rows_seen)?;
             }
             let m = self.n_responses;
             let rows = || xs.chunks_exact(p).map(|r| r.iter().copied());
@@ -351,7 +351,7 @@ impl LeastSquares {
         let finite = |v: &f64| v.is_finite();
         let clean = design.iter().all(finite) && responses.iter().all(finite) && weights_ok;
         if !clean {
-            self.first_invalid(design, responses, weights)?;
+            first_invalid(design, responses, weights, self.rows_seen)?;
         }
         let rows = design.rows().into_iter().map(|r| r.into_iter().copied());
         let resp = responses.rows().into_iter().map(|r| r.into_iter().copied());
@@ -426,50 +426,6 @@ impl LeastSquares {
         column_sum_squares[..p].copy_from_slice(css);
         *n_rows += accepted;
         *rows_seen += n_pushed;
-    }
-
-    /// The first non-finite value or negative weight of a chunk, in row order
-    /// (design columns, then response, then weight), as an error.
-    fn first_invalid(
-        &self,
-        design: ArrayView2<'_, f64>,
-        responses: ArrayView2<'_, f64>,
-        weights: Option<&[f64]>,
-    ) -> Result<()> {
-        for (k, (row, ys)) in design.rows().into_iter().zip(responses.rows()).enumerate() {
-            let global = self.rows_seen + k as u64;
-            if let Some(column) = row.iter().position(|v| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: "design",
-                    row: global,
-                    column,
-                });
-            }
-            if let Some(column) = ys.iter().position(|v| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: "response",
-                    row: global,
-                    column,
-                });
-            }
-            if let Some(w) = weights {
-                let w = w[k];
-                if !w.is_finite() {
-                    return Err(Error::NonFinite {
-                        what: "weights",
-                        row: global,
-                        column: 0,
-                    });
-                }
-                if w < 0.0 {
-                    return Err(Error::InvalidParameter {
-                        name: "weights",
-                        reason: format!("must be >= 0, got {w} at row {global}"),
-                    });
-                }
-            }
-        }
-        Ok(())
     }
 
     /// Merge another problem with the same number of columns.
@@ -952,6 +908,51 @@ impl LeastSquares {
         }
         coefficients
     }
+}
+
+/// The first non-finite value or negative weight of a chunk, in row order
+/// (design columns, then response, then weight), as an error; rows are numbered
+/// from `first_row` (the rows an accumulator saw before this chunk).
+pub(crate) fn first_invalid(
+    design: ArrayView2<'_, f64>,
+    responses: ArrayView2<'_, f64>,
+    weights: Option<&[f64]>,
+    first_row: u64,
+) -> Result<()> {
+    for (k, (row, ys)) in design.rows().into_iter().zip(responses.rows()).enumerate() {
+        let global = first_row + k as u64;
+        if let Some(column) = row.iter().position(|v| !v.is_finite()) {
+            return Err(Error::NonFinite {
+                what: "design",
+                row: global,
+                column,
+            });
+        }
+        if let Some(column) = ys.iter().position(|v| !v.is_finite()) {
+            return Err(Error::NonFinite {
+                what: "response",
+                row: global,
+                column,
+            });
+        }
+        if let Some(w) = weights {
+            let w = w[k];
+            if !w.is_finite() {
+                return Err(Error::NonFinite {
+                    what: "weights",
+                    row: global,
+                    column: 0,
+                });
+            }
+            if w < 0.0 {
+                return Err(Error::InvalidParameter {
+                    name: "weights",
+                    reason: format!("must be >= 0, got {w} at row {global}"),
+                });
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Rows per block in [`LeastSquares::push`].
