@@ -15,7 +15,9 @@ import accelcore
 from accelcore import calibrate, simulate
 from accelcore.errors import TemperatureRangeWarning
 from accelcore.input.session import Session
+from accelcore.model import base_terms
 from accelcore.result.calibration import Calibration
+from accelcore.simulate import effects as se
 
 FloatArray = NDArray[np.float64]
 AXES = ("x", "y", "z")
@@ -38,7 +40,9 @@ def session_of(sim: simulate.SimulatedArrays) -> Session:
 @pytest.fixture(scope="module")
 def fitted() -> tuple[simulate.SimulatedArrays, Calibration]:
     sim = simulate.arrays("ADXL335", seed=301, duration_h=2.0, serial="A-0017")
-    return sim, calibrate(session_of(sim))
+    # The seed paper's model (offset and sensitivity linear in T), whose formula and
+    # uncertainty these tests write out; the default full gain is tested below.
+    return sim, calibrate(session_of(sim), terms={a: base_terms(a) for a in AXES})
 
 
 @pytest.fixture(scope="module")
@@ -362,3 +366,31 @@ def test_missing_calibration_file_is_an_os_error(tmp_path: Path) -> None:
     with pytest.raises(accelcore.AccelcoreIOError, match="cannot read calibration file") as info:
         Calibration.load(tmp_path / "absent.json")
     assert isinstance(info.value, OSError)
+
+
+def test_default_full_gain_compensation_inverts_the_3x3_gain() -> None:
+    """Default model with six orientations: v = o(T) + S(T) a with S the full 3x3 gain
+    (own-axis sensitivity linear in T, constant cross-axis terms). Compensation solves
+    it for a; checked against numpy.linalg.solve, sample by sample (a 3x3 solve of a
+    gain matrix with condition ~1: 1e-12 relative)."""
+    sim = simulate.arrays("ADXL335", seed=311, duration_h=0.5, effects=(se.Misalignment(),))
+    cal = calibrate(session_of(sim))
+    assert not cal.not_identified
+    for a in AXES:
+        for b in AXES:
+            if b != a:
+                assert cal.axes[a].estimated[cal.axes[a].index("gain", "1", b)]
+    temp = np.array([5.0, 25.0, 47.5, 55.0])
+    raw = np.array([[1.50, 1.48, 1.85]] * temp.size) + np.linspace(-0.3, 0.3, temp.size)[:, None]
+    acc = cal.compensate(raw, temp)
+    dt = temp - cal.t_ref_c
+    for k in range(temp.size):
+        gain = np.zeros((3, 3))
+        offset = np.zeros(3)
+        for i, a in enumerate(AXES):
+            m = cal.axes[a]
+            offset[i] = m.value("offset", "1")[0] + m.value("offset", "dT^1")[0] * dt[k]
+            for j, b in enumerate(AXES):
+                gain[i, j] = m.value("gain", "1", b)[0]
+            gain[i, i] += m.value("gain", "dT^1", a)[0] * dt[k]
+        np.testing.assert_allclose(acc[k], np.linalg.solve(gain, raw[k] - offset), rtol=1e-12)

@@ -239,7 +239,7 @@ def test_a_missing_renamed_column_is_named(tmp_path: Path) -> None:
 
 
 def solution_operator(session: Session, axis: int, window_c: tuple[float, float]) -> FloatArray:
-    """Rows of ``(X'WX)^-1 X'W`` of the base joint model of one axis (design as calibrate's).
+    """Rows of ``(X'WX)^-1 X'W`` of the default joint model of one axis (design as calibrate's).
 
     A perturbation ``d`` of the block outputs moves the coefficients by
     ``operator @ d``, hence by at most ``|operator|.sum(axis=1) * max|d|``.
@@ -249,7 +249,10 @@ def solution_operator(session: Session, axis: int, window_c: tuple[float, float]
         keep = (run.temperature_c >= window_c[0]) & (run.temperature_c <= window_c[1])
         dt = run.temperature_c[keep] - 25.0
         g = run.gravity_g[axis]
-        rows.append(np.column_stack([np.ones_like(dt), dt, g * np.ones_like(dt), g * dt]))
+        # The default model: offset and sensitivity linear in T, then the gain on each
+        # other axis' gravity (the full 3x3 gain), in calibrate's term order.
+        cross = [run.gravity_g[b] * np.ones_like(dt) for b in range(3) if b != axis]
+        rows.append(np.column_stack([np.ones_like(dt), dt, g * np.ones_like(dt), g * dt, *cross]))
         weights.append(run.count[keep].astype(np.float64))
     x, w = np.vstack(rows), np.concatenate(weights)
     return np.asarray(np.linalg.solve(x.T @ (w[:, None] * x), (x * w[:, None]).T))

@@ -23,7 +23,12 @@ code then asks the value what it is instead of splitting strings:
 ``elapsed_h`` (:class:`Elapsed`)
     time since the start of the run, hours (drift);
 ``extra:NAME`` (:class:`Extra`)
-    an extra logged column, minus its reference value stored in the model.
+    an extra logged column, minus its reference value stored in the model;
+``hinge(k):B`` (:class:`Hinge`)
+    ``max(B - k, 0)`` of one of the observables above (``dT^1``, ``dTdt``,
+    ``elapsed_h``, ``extra:NAME``) at a knot ``k`` in that basis' units: with the
+    observable's own line, a piecewise-linear (linear spline) function of it, the
+    diagnosis' generic term over anything logged.
 
 The base model of the seed paper is, on each axis, offset ``1``, ``dT^1`` and
 gain (own axis) ``1``, ``dT^1``: zero-g offset and sensitivity, each a line in
@@ -54,6 +59,7 @@ __all__ = [
     "Elapsed",
     "Extra",
     "Features",
+    "Hinge",
     "LaggedTemperaturePower",
     "TemperaturePower",
     "TemperatureRate",
@@ -61,6 +67,7 @@ __all__ = [
     "base_terms",
     "design_columns",
     "evaluate_basis",
+    "full_gain_terms",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -177,6 +184,9 @@ class Basis(ABC):
             return TemperatureRate()
         if text == "elapsed_h":
             return Elapsed()
+        m = _HINGE.match(text)
+        if m:
+            return Hinge(float(m.group(1)), Basis.parse(m.group(2)))
         if text.startswith("extra:") and len(text) > len("extra:"):
             return Extra(text[len("extra:") :])
         raise ParameterError(f"unknown basis {text!r}")
@@ -184,6 +194,7 @@ class Basis(ABC):
 
 _POLY = re.compile(r"^dT\^([1-9])$")
 _LAG = re.compile(r"^lag\(([0-9.eE+-]+)\):dT\^([1-9])$")
+_HINGE = re.compile(r"^hinge\(([0-9.eE+-]+)\):(.+)$")
 
 
 @dataclass(frozen=True)
@@ -323,6 +334,47 @@ class Extra(Basis):
         return np.asarray(features.extras[self.column_name], dtype=np.float64) - ref
 
 
+@dataclass(frozen=True)
+class Hinge(Basis):
+    """``hinge(k):B``: ``max(B - k, 0)``, a linear-spline piece of an observable.
+
+    ``B`` is one of ``dT^1`` (°C from T_ref), ``dTdt`` (°C/min), ``elapsed_h`` (h) or
+    ``extra:NAME`` (the column minus its reference); ``k`` is in ``B``'s units (kept
+    to 6 significant digits, as files store it). The line ``B`` and hinges at a few
+    knots make a continuous piecewise-linear function of the observable.
+    """
+
+    knot: float
+    inner: Basis
+
+    stateful: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        if not math.isfinite(self.knot):
+            raise ParameterError(f"a hinge knot must be finite, got {self.knot}")
+        object.__setattr__(self, "knot", float(f"{self.knot:.6g}"))
+        ok = isinstance(self.inner, (TemperatureRate, Elapsed, Extra)) or (
+            isinstance(self.inner, TemperaturePower) and self.inner.order == 1
+        )
+        if not ok:
+            raise ParameterError(
+                f"a hinge acts on dT^1, dTdt, elapsed_h or extra:NAME, not {self.inner.name!r}"
+            )
+
+    @property
+    def name(self) -> str:  # noqa: D102
+        return f"hinge({self.knot:.6g}):{self.inner.name}"
+
+    @property
+    def column(self) -> str | None:  # noqa: D102
+        return self.inner.column
+
+    def evaluate(  # noqa: D102
+        self, features: Features, references: Mapping[str, float] | None = None
+    ) -> FloatArray:
+        return np.maximum(self.inner.evaluate(features, references) - self.knot, 0.0)
+
+
 # ---------------------------------------------------------------------- terms
 @dataclass(frozen=True)
 class Term:
@@ -408,6 +460,19 @@ def base_terms(axis: str) -> tuple[Term, ...]:
         Term("gain", Constant(), source=axis),
         Term("gain", TemperaturePower(1), source=axis),
     )
+
+
+def full_gain_terms(axis: str) -> tuple[Term, ...]:
+    """Return the default joint model of one axis: the seed paper's, plus cross-axis gain.
+
+    The offset and own-axis sensitivity linear in T (:func:`base_terms`), then a
+    constant gain on each other axis' gravity (misalignment and cross-axis
+    sensitivity: the full 3x3 gain, as multi-position calibrators fit it). With
+    fewer than six orientations the fit holds what the runs cannot identify at 0
+    and lists it in ``Calibration.not_identified``.
+    """
+    cross = tuple(Term("gain", Constant(), source=b) for b in AXES if b != axis)
+    return (*base_terms(axis), *cross)
 
 
 def evaluate_basis(

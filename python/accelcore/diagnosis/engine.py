@@ -147,16 +147,23 @@ class Engine:
             for name in session.extra_columns
         }
         self._basis_cache: dict[Basis, FloatArray] = {}
-        # Blocks: contiguous stretches of at most block_s inside one part.
+        # Blocks: contiguous stretches of at most block_s inside one part, and at least
+        # MIN_BLOCKS_PER_PART of them where the part holds the samples (a static hold of
+        # a few seconds still gets blocks, so folds, inside it).
         starts: list[int] = []
         block_part: list[int] = []
         for p, f in enumerate(feats):
             t = np.asarray(f.time_s)
-            chunk = np.floor((t - t[0]) / block_s).astype(np.int64)
+            length = block_s
+            if t.size >= 2 * MIN_BLOCKS_PER_PART and t[-1] > t[0]:
+                # Sample times are block centres: the part spans one interval more.
+                span = (t[-1] - t[0]) * t.size / (t.size - 1)
+                length = min(block_s, span / MIN_BLOCKS_PER_PART)
+            chunk = np.floor((t - t[0]) / length * (1 - 1e-9)).astype(np.int64)
             edges = np.flatnonzero(np.diff(chunk)) + 1
             b0 = [0, *edges.tolist()]
             # Merge a short last chunk into the one before it.
-            if len(b0) > 1 and (t[-1] - t[b0[-1]]) < 0.5 * block_s:
+            if len(b0) > 1 and (t[-1] - t[b0[-1]]) < 0.5 * length:
                 b0 = b0[:-1]
             starts += [int(self.part_start[p]) + s for s in b0]
             block_part += [p] * len(b0)
@@ -210,13 +217,19 @@ class Engine:
             self.y[a] = y * (1000.0 / self.scale[a])
         self._memo: dict[tuple[str, tuple[_Key, ...]], HeldOutFit] = {}
         self.max_order = max_order
-        self._extras = [
+        #: Extra columns that are finite and vary (candidates of the model space).
+        self.varying_extras = [
             name
             for name, values in self.extras.items()
             if np.all(np.isfinite(values)) and float(np.std(values)) > 0
         ]
-        # Catalogues of columns, their rows pushed once: (column index, folds) per lag.
-        self._wide: dict[tuple[str, float] | None, tuple[dict[_Key, int], FoldedLeastSquares]] = {}
+        #: Knots of each observable of the generic family (filled by that family).
+        self.knot_cache: dict[Basis, tuple[float, ...]] = {}
+        self._attempted: set[tuple[str, str]] = set()
+        self._model_keys: tuple[_Key, ...] = ()
+        # Catalogues of columns, their rows pushed once: (column index, folds) per lag,
+        # or per observable of the generic family (("generic", name)).
+        self._wide: dict[_CatalogueName, tuple[dict[_Key, int], FoldedLeastSquares]] = {}
         self._push_catalogue(None)
 
     # -------------------------------------------------------------- folds
@@ -315,23 +328,31 @@ class Engine:
         return np.column_stack([self.column(t) for t in free])
 
     # -------------------------------------------------------------- fitting
-    def _push_catalogue(self, lag: tuple[str, float] | None) -> None:
+    def _push_catalogue(
+        self,
+        lag: tuple[str, float] | None,
+        extra_keys: Sequence[_Key] = (),
+        name: tuple[str, str] | None = None,
+        only: bool = False,
+    ) -> None:
         """Push the columns of a catalogue once (three responses) and fix its folds.
 
         ``lag`` None: the catalogue without a lag. ``("die", tau)``: every temperature
         basis lagged by ``tau``. ``("rate", tau)``: the one without a lag plus the rate
-        term ``lag(tau):dT^1``.
+        term ``lag(tau):dT^1``. ``extra_keys`` are further columns (kept under ``name``);
+        ``only``: they are the whole catalogue.
         """
         plain: list[Basis] = [TemperaturePower(k) for k in range(1, self.max_order + 1)]
         temps: list[Basis] = plain
         if lag is not None and lag[0] == "die":
             temps = [LaggedTemperaturePower(lag[1], k) for k in range(1, self.max_order + 1)]
         offsets: list[Basis] = [Constant(), *temps, Elapsed()]
-        offsets += [Extra(name) for name in self._extras]
+        offsets += [Extra(name) for name in self.varying_extras]
         if lag is not None and lag[0] == "rate":
             offsets.append(LaggedTemperaturePower(lag[1], 1))
         gains: list[Basis] = [Constant(), *temps]
         keys: list[_Key] = [(b, None) for b in offsets] + [(b, a) for a in AXES for b in gains]
+        keys = list(extra_keys) if only else keys + [k for k in extra_keys if k not in keys]
         keys = keys[:_MAX_COLUMNS]
         design = np.empty((self.n, len(keys)))
         for i, key in enumerate(keys):
@@ -340,7 +361,55 @@ class Engine:
             return
         wide = BlockedLeastSquares(len(keys), int(self.block_start.size), n_responses=len(AXES))
         wide.push(design, np.column_stack([self.y[a] for a in AXES]), self.sample_block, self.w)
-        self._wide[lag] = ({k: i for i, k in enumerate(keys)}, wide.folds(self.block_fold))
+        self._wide[lag if name is None else name] = (
+            {k: i for i, k in enumerate(keys)},
+            wide.folds(self.block_fold),
+        )
+
+    def set_models(self, terms: Mapping[str, Sequence[Term]]) -> None:
+        """Note the current model of every axis (the columns of :meth:`ensure_catalogue`)."""
+        keys: list[_Key] = []
+        for a, ts in terms.items():
+            keys += [k for k in self._keys(a, ts) if k not in keys]
+        self._model_keys = tuple(keys)
+
+    def ensure_catalogue(self, name: str, columns: Sequence[tuple[Basis, str | None]]) -> None:
+        """Push, once, the columns of the current models plus ``columns`` (basis, source).
+
+        The generic family keeps one per observable and set of current models, so
+        that its candidates (a model plus some of ``columns``) are subset queries.
+        """
+        cols = [*self._model_keys, *(c for c in columns if c not in self._model_keys)]
+        key = ("generic", f"{name}|{hash(tuple(cols))}")
+        if key not in self._attempted:
+            self._attempted.add(key)
+            for old in [k for k in self._wide if k is not None and k[0] == "generic"]:
+                if str(old[1]).split("|")[0] == name:
+                    del self._wide[old]  # the models moved on: its columns are stale
+            self._push_catalogue(None, cols, key, only=True)
+
+    def cv_coarse(self, axis: str, terms: Sequence[Term]) -> float:
+        """Held-out weighted SSE of an axis model on every :attr:`coarse_stride`-th row.
+
+        For searches over a nonlinear parameter (a lag's time constant): each trial
+        pushes a fraction of the rows; the value found is then scored on every row.
+        Same blocks and folds as :meth:`cv`.
+        """
+        keys = self._keys(axis, terms)
+        rows = slice(None, None, self.coarse_stride)
+        y, w = self.y[axis][rows], self.w[rows]
+        if not keys:
+            return float((w * y * y).sum())
+        x = np.column_stack([self._key_column(k)[rows] for k in keys])
+        own = BlockedLeastSquares(x.shape[1], int(self.block_start.size))
+        own.push(x, y, self.sample_block[rows], w)
+        fit = own.cross_validate(self.block_fold)
+        return float(np.sum(fit.heldout_rss_per_block))
+
+    @property
+    def coarse_stride(self) -> int:
+        """Row stride of :meth:`cv_coarse`: about :data:`COARSE_ROWS` rows, at least all."""
+        return max(1, self.n // COARSE_ROWS)
 
     def keep_lags(self, die: Sequence[float], rate: Sequence[float]) -> None:
         """Keep a catalogue (rows pushed once) for each lag the models now hold; drop the rest.
@@ -351,7 +420,7 @@ class Engine:
         wanted: set[tuple[str, float] | None] = {None}
         wanted |= {("die", float(t)) for t in die} | {("rate", float(t)) for t in rate}
         for lag in list(self._wide):
-            if lag not in wanted:
+            if lag not in wanted and (lag is None or lag[0] != "generic"):
                 del self._wide[lag]
         self.drop_lag_cache([*die, *rate])
         for lag in wanted:
@@ -465,6 +534,15 @@ class Fit:
 
 #: A design column: a basis, alone (offset, ``None``) or times an axis' gravity (gain).
 _Key = tuple[Basis, str | None]
+
+#: A catalogue: None (no lag), ``("die"|"rate", tau)`` or ``("generic", name)``.
+_CatalogueName = tuple[str, float | str] | None
+
+#: Rows a coarse search trial (:meth:`Engine.cv_coarse`) aims at.
+COARSE_ROWS = 20_000
+
+#: Fewest held-out blocks a part (run x leg) is cut into when it holds the samples.
+MIN_BLOCKS_PER_PART = 3
 
 #: Most columns of one least-squares problem in the core.
 _MAX_COLUMNS = 64

@@ -15,10 +15,19 @@ from typing import Any
 import numpy as np
 
 from accelcore.fitting.calibrate import fit_axis
-from accelcore.model import AXES, Elapsed, LaggedTemperaturePower
+from accelcore.model import (
+    AXES,
+    Basis,
+    Elapsed,
+    Extra,
+    Hinge,
+    LaggedTemperaturePower,
+    TemperatureRate,
+)
 from accelcore.result.calibration import AxisModel, nominal_sensitivity
 
 from .engine import Engine
+from .generic import observable_unit
 from .search import tau_se
 from .space import Spec
 
@@ -66,16 +75,21 @@ def added_parameters(
                 continue
             se = math.sqrt(max(float(var), 0.0)) if est else math.nan
             order = t.basis.temperature_order
+            per = _per_unit(t.basis)
             if t.kind == "offset":
-                if isinstance(t.basis, Elapsed):
+                if per is not None:
+                    unit = f"mg/{per}"
+                elif isinstance(t.basis, Elapsed):
                     unit = "mg/h"
                 else:
                     unit = f"mg/°C^{order}" if order is not None else "mg/unit"
                 factor = 1000.0 / s
             elif t.source == a:
-                unit, factor = f"%/°C^{order or ''}", 100.0 / s
+                unit = f"%/{per}" if per is not None else f"%/°C^{order or ''}"
+                factor = 100.0 / s
             else:
-                unit, factor = "deg", math.degrees(1.0) / s
+                unit = "deg" if per is None else f"deg/{per}"
+                factor = math.degrees(1.0) / s
             out.append(
                 {
                     "axis": a,
@@ -86,6 +100,15 @@ def added_parameters(
                 }
             )
     return out
+
+
+def _per_unit(basis: Basis) -> str | None:
+    """Return the unit a generic term's coefficient is per (None: not such a basis)."""
+    if isinstance(basis, Hinge):
+        return observable_unit(basis.inner)
+    if isinstance(basis, (TemperatureRate, Extra)):
+        return observable_unit(basis)
+    return None
 
 
 def fit_models(

@@ -9,7 +9,7 @@ pairs of effects this data cannot tell apart.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Container, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from accelcore.model import AXES, Elapsed, Extra, LaggedTemperaturePower, TemperaturePower
 
 from .engine import CV, Engine
+from .generic import generic_variants
 from .space import Spec, with_tau
 from .structure import MIN_TEMPERATURE_SPAN_C, temperature_span_c
 
@@ -29,9 +30,21 @@ _CONFOUND_TAU_S = 120.0
 
 
 def variants(
-    family: str, axis: str, spec: Spec, eng: Engine, max_order: int, extras: Sequence[str]
+    family: str,
+    axis: str,
+    spec: Spec,
+    eng: Engine,
+    max_order: int,
+    extras: Sequence[str],
+    skip: Container[str] = (),
 ) -> list[tuple[str, str, Spec]]:
-    """(family, variant label, spec) of one family on one axis, cheapest first."""
+    """(family, variant label, spec) of one family on one axis, cheapest first.
+
+    ``smooth`` (the generic family) lists one family per slot and observable not in
+    ``skip`` (:func:`accelcore.diagnosis.generic.generic_variants`).
+    """
+    if family == "smooth":
+        return generic_variants(axis, spec, eng, skip)
     a_i = AXES.index(axis)
     own_values = np.unique(eng.gravity[:, a_i]).size
     out: list[tuple[str, str, Spec]] = []
@@ -65,14 +78,18 @@ def variants(
 def search_tau(
     eng: Engine, axis: str, spec: Spec, tau_range_s: tuple[float, float], variant: str
 ) -> tuple[float, CV]:
-    """Grid then golden-section search of the lag time constant on held-out SSE."""
-    cache: dict[float, CV] = {}
+    """Grid then golden-section search of the lag time constant on held-out SSE.
+
+    The trials are scored on a stride of the rows (:meth:`Engine.cv_coarse`); the
+    time constant found is cross-validated on every row.
+    """
+    cache: dict[float, float] = {}
 
     def score(tau: float) -> float:
         tau = float(f"{tau:.3g}")
         if tau not in cache:
-            cache[tau] = eng.cv(axis, with_tau(spec, variant, tau).terms(axis))
-        return float(cache[tau].sse_blocks.sum())
+            cache[tau] = eng.cv_coarse(axis, with_tau(spec, variant, tau).terms(axis))
+        return cache[tau]
 
     lo, hi = math.log(tau_range_s[0]), math.log(tau_range_s[1])
     grid = np.linspace(lo, hi, 12)
@@ -91,8 +108,8 @@ def search_tau(
             a, c, fc = c, d, fd
             d = a + golden * (b - a)
             fd = score(math.exp(d))
-    best = min(cache, key=lambda t: float(cache[t].sse_blocks.sum()))
-    return best, cache[best]
+    best = min(cache, key=lambda t: cache[t])
+    return best, eng.cv(axis, with_tau(spec, variant, best).terms(axis))
 
 
 def tau_se(eng: Engine, axis: str, spec: Spec) -> float:

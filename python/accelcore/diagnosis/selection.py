@@ -38,6 +38,7 @@ from accelcore.result.calibration import Calibration
 
 from . import search
 from .engine import CV, Engine
+from .generic import TEMPERATURE_OBSERVABLES
 from .observables import STEADY_C_PER_MIN
 from .parameters import added_parameters, fit_models
 from .result import Diagnosis, Step
@@ -58,7 +59,14 @@ __all__ = ["QUALITY_EXPLAINS", "diagnose"]
 #: tried when it is found: a run cut short holds only the start of the sweep, its lag
 #: state and temperature path unlike the other runs', so a lag fitted across the runs
 #: may only mirror the cut.
-QUALITY_EXPLAINS: Mapping[str, tuple[str, ...]] = {"short": ("thermal_lag",)}
+QUALITY_EXPLAINS: Mapping[str, tuple[str, ...]] = {
+    "short": ("thermal_lag", "smooth:dtemp_dt_c_per_min", "smooth:elapsed_h")
+}
+
+#: A generic family (``smooth``) is chosen over the best named one only when it cuts
+#: the held-out squared error by this factor more: the named ones are its special
+#: cases with fewer parameters.
+GENERIC_MARGIN = 1.1
 
 #: (family, variant label, CV, spec) of one variant tried.
 _Tried = tuple[str, str, CV, Spec]
@@ -85,6 +93,7 @@ class _Rules:
 
     families: Sequence[str]
     extras: Sequence[str]
+    skip_observables: frozenset[str]
     max_order: int
     tau_range_s: tuple[float, float]
     min_improvement: float
@@ -135,7 +144,13 @@ class _Selection:
             return [
                 (fam, label, self.eng.cv(axis, s.terms(axis)), s)
                 for fam, label, s in variants(
-                    family, axis, spec, self.eng, rules.max_order, rules.extras
+                    family,
+                    axis,
+                    spec,
+                    self.eng,
+                    rules.max_order,
+                    rules.extras,
+                    rules.skip_observables,
                 )
             ]
         if spec.tau is not None or spec.rate_tau is not None:
@@ -148,6 +163,7 @@ class _Selection:
 
     def _candidates(self, step: int) -> dict[str, list[Candidate]]:
         """Return the best variant of every family (``extra:NAME`` separately) on every axis."""
+        self.eng.set_models({a: self.specs[a].terms(a) for a in AXES})
         by_family: dict[str, list[Candidate]] = {}
         for family in self.rules.families:
             for a in AXES:
@@ -234,17 +250,25 @@ class _Selection:
 def _best_family(
     by_family: Mapping[str, Sequence[Candidate]], cv_cur: Mapping[str, CV]
 ) -> str | None:
-    """Return the family that cuts held-out SSE most over the axes accepting it."""
-    best_fam, best_gain = None, 0.0
+    """Return the family that cuts held-out SSE most over the axes accepting it.
+
+    A generic family (``... vs ...``) wins only by :data:`GENERIC_MARGIN` over the
+    best named family.
+    """
+    best: dict[bool, tuple[str | None, float]] = {False: (None, 0.0), True: (None, 0.0)}
     for fam, cands in by_family.items():
         gain = sum(
             float(cv_cur[c.axis].sse_blocks.sum() - c.cv.sse_blocks.sum())
             for c in cands
             if c.accepted
         )
-        if gain > best_gain:
-            best_fam, best_gain = fam, gain
-    return best_fam
+        generic = " vs " in fam
+        if gain > best[generic][1]:
+            best[generic] = (fam, gain)
+    (named, g_named), (generic_fam, g_generic) = best[False], best[True]
+    if generic_fam is not None and g_generic > GENERIC_MARGIN * g_named:
+        return generic_fam
+    return named
 
 
 def _pooled(values: Mapping[str, float]) -> float:
@@ -358,10 +382,24 @@ def diagnose(
         quality = check_session(session, window_c=window, warn=False)
     tried, skipped = _not_explained_by(tried, quality)
     warn += skipped
-    rules = _Rules(tried, usable_extras, max_order, tau_range_s, min_improvement, alpha)
+    skip = {f.split(":", 1)[1] for f in _explained(quality) if f.startswith("smooth:")}
+    if span < MIN_TEMPERATURE_SPAN_C:
+        skip |= set(TEMPERATURE_OBSERVABLES)
+    rules = _Rules(
+        tried,
+        usable_extras,
+        frozenset(skip),
+        max_order,
+        tau_range_s,
+        min_improvement,
+        alpha,
+    )
+    specs_at_start = dict(specs)
     selection = _Selection(eng, specs, rules)
     selection.run(max_steps)
     added = [s.effect for s in selection.steps[1:]]
+    if any(spec.cross for spec in specs_at_start.values()):
+        added.append("misalignment")  # the base model holds the cross-axis gain
     warn = [c.text(added) for c in confounded] + warn
     improved = _improved_calibration(base, eng, selection.specs, selection.steps)
     resid = {a: eng.residuals(a, selection.specs[a].terms(a))[0] for a in AXES}
@@ -399,6 +437,12 @@ def diagnose(
     )
 
 
+def _explained(quality: Sequence[QualityIssue]) -> list[str]:
+    """Families (and ``smooth:OBSERVABLE``) that the session's findings could explain."""
+    kinds = {i.kind for i in quality}
+    return [f for kind, fams in QUALITY_EXPLAINS.items() if kind in kinds for f in fams]
+
+
 def _not_explained_by(
     families: Sequence[str], quality: Sequence[QualityIssue]
 ) -> tuple[list[str], list[str]]:
@@ -407,10 +451,18 @@ def _not_explained_by(
     notes = []
     for kind, explained in QUALITY_EXPLAINS.items():
         found = [i for i in quality if i.kind == kind]
-        dropped = [f for f in explained if f in kept]
-        if not found or not dropped:
+        if not found:
             continue
+        dropped = [f for f in explained if f in kept]
         kept = [f for f in kept if f not in dropped]
+        if "smooth" in kept:
+            dropped += [
+                f"generic terms vs {f.split(':', 1)[1]}"
+                for f in explained
+                if f.startswith("smooth:")
+            ]
+        if not dropped:
+            continue
         runs = sorted({i.run for i in found if i.run})
         where = f" ({', '.join(runs)})" if runs else ""
         notes.append(

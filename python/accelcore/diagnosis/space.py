@@ -16,8 +16,10 @@ from accelcore.model import (
     Constant,
     Elapsed,
     Extra,
+    Hinge,
     LaggedTemperaturePower,
     TemperaturePower,
+    TemperatureRate,
     Term,
 )
 
@@ -31,6 +33,7 @@ FAMILIES = (
     "misalignment",
     "drift",
     "extra",
+    "smooth",
 )
 
 
@@ -52,6 +55,10 @@ class Spec:
         Offset linear in elapsed time.
     extras : tuple of str
         Extra columns entering as linear offsets.
+    generic : tuple of Term
+        Terms of the generic family (``smooth``, :mod:`accelcore.diagnosis.generic`):
+        the line and hinges of an observable in the offset or in a gain, each term
+        tagged with its effect (e.g. ``offset vs temperature_c``).
     """
 
     tau: float | None = None
@@ -61,6 +68,7 @@ class Spec:
     cross: tuple[str, ...] = ()
     drift: bool = False
     extras: tuple[str, ...] = ()
+    generic: tuple[Term, ...] = ()
 
     def temp_basis(self, k: int) -> Basis:
         """Return the ``k``-th temperature basis (lagged with ``tau``)."""
@@ -83,6 +91,7 @@ class Spec:
         if self.drift:
             out.append(Term("offset", Elapsed(), effect="drift"))
         out += [Term("offset", Extra(e), effect="extra") for e in self.extras]
+        out += self.generic
         if self.tau is not None:
             out = [
                 replace(t, effect="thermal_lag")
@@ -100,6 +109,9 @@ def spec_from_terms(axis: str, terms: Sequence[Term]) -> Spec | None:
     plain = {t.basis for t in terms if t.kind == "offset"}
     for t in terms:
         basis = t.basis
+        if _generic(t, axis):
+            spec = replace(spec, generic=(*spec.generic, t))
+            continue
         tau = basis.lag_s
         if tau is not None and t.kind == "offset" and TemperaturePower(1) in plain:
             if basis.temperature_order == 1 and spec.rate_tau is None:
@@ -135,6 +147,21 @@ def spec_from_terms(axis: str, terms: Sequence[Term]) -> Spec | None:
     if spec.offset_order < 1 or spec.gain_order < 1:
         return None
     return spec
+
+
+def _generic(term: Term, axis: str) -> bool:
+    """Tell whether only the generic family makes a term.
+
+    A hinge, or an observable's line in a place the named families do not put it.
+    """
+    b = term.basis
+    if isinstance(b, Hinge):
+        return True
+    if isinstance(b, TemperatureRate):
+        return True
+    if term.kind == "gain" and isinstance(b, (Elapsed, Extra)):
+        return True
+    return term.kind == "gain" and term.source != axis and b == TemperaturePower(1)
 
 
 def with_tau(spec: Spec, variant: str, tau: float) -> Spec:

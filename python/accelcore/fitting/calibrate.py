@@ -40,6 +40,7 @@ from accelcore.model import (
     Term,
     base_terms,
     design_columns,
+    full_gain_terms,
 )
 from accelcore.result.calibration import AxisModel, Calibration, nominal_sensitivity
 
@@ -501,7 +502,9 @@ def calibrate(
     bin_width_c : float, default 0.5
         Temperature bin width of the paper's method, °C.
     terms : mapping of axis to sequence of Term, optional
-        Model terms of the joint fit; default :func:`accelcore.model.base_terms`.
+        Model terms of the joint fit; default :func:`accelcore.model.full_gain_terms`
+        (offset and sensitivity linear in T, and the cross-axis gain: the full 3x3
+        gain where the orientations identify it, the rest in ``not_identified``).
     robust : bool, default True
         Leave out decimated blocks that are spikes or clipped at a rail
         (:func:`accelcore.input.quality.excluded_blocks`); what was left out is listed in
@@ -543,7 +546,9 @@ def calibrate(
             session, t_ref_c, window_c or (-273.15, 1000.0), bin_width_c, robust
         )
     else:
-        model_terms = {a: tuple(terms[a]) if terms and a in terms else base_terms(a) for a in AXES}
+        model_terms = {
+            a: tuple(terms[a]) if terms and a in terms else full_gain_terms(a) for a in AXES
+        }
         axes, not_identified, notes, t_range, refs = _fit_joint(
             session, model_terms, t_ref_c, window_c, robust=robust
         )

@@ -1,0 +1,168 @@
+"""The generic family: any observable, as a smooth function, in the offset or in a gain.
+
+The named families are special cases of one mechanism: a function of something
+logged, entering the model where it acts. This module offers that mechanism
+whole. Each *observable* — temperature (``dT^1``), its rate of change (``dTdt``),
+time since the start of the run (``elapsed_h``) and every extra logged column
+(``extra:NAME``) — may enter as a continuous piecewise-linear function (its line
+and :class:`~accelcore.model.Hinge` pieces at three evenly spaced knots) in one
+*slot*: the offset, or the gain on the gravity of one axis (the axis' own gravity:
+sensitivity; another axis': cross-axis coupling). Each (slot, observable) pair is a
+family of its own, named by what it depends on and where it acts, e.g. ``offset vs
+dtemp_dt_c_per_min`` or ``gain on g_y vs supply_v``; the selection tries every one
+of them on every axis by the same held-out test as the named families.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Container, Sequence
+from dataclasses import replace
+from typing import Literal
+
+import numpy as np
+
+from accelcore.model import (
+    AXES,
+    Basis,
+    Elapsed,
+    Extra,
+    Hinge,
+    TemperaturePower,
+    TemperatureRate,
+    Term,
+)
+
+from .engine import Engine
+from .space import Spec
+
+__all__ = [
+    "KNOT_FRACTIONS",
+    "TEMPERATURE_OBSERVABLES",
+    "generic_variants",
+    "knots",
+    "observable_unit",
+    "observables",
+    "slot_name",
+]
+
+#: Where an observable's hinges sit, as fractions of the span of its values (5th to
+#: 95th percentile): four linear pieces of equal width. Evenly spaced rather than at
+#: quantiles, so that a rate of change that is mostly 0 and ±ramp (a chamber profile)
+#: still gets knots across its range.
+KNOT_FRACTIONS = (0.25, 0.5, 0.75)
+
+_RANGE = (0.05, 0.95)
+
+#: Observables driven by temperature (not tried when the temperature does not move).
+TEMPERATURE_OBSERVABLES = ("temperature_c", "dtemp_dt_c_per_min")
+
+#: Least fraction of the weighted samples on each side of a knot.
+_MIN_SIDE = 0.05
+
+
+def observables(eng: Engine) -> list[tuple[str, Basis]]:
+    """Name and basis (the observable's line) of every observable of the data."""
+    out: list[tuple[str, Basis]] = [
+        ("temperature_c", TemperaturePower(1)),
+        ("dtemp_dt_c_per_min", TemperatureRate()),
+        ("elapsed_h", Elapsed()),
+    ]
+    out += [(name, Extra(name)) for name in eng.varying_extras]
+    return out
+
+
+def observable_unit(inner: Basis) -> str:
+    """Return the unit of an observable's line basis."""
+    if isinstance(inner, TemperaturePower):
+        return "°C"
+    if isinstance(inner, TemperatureRate):
+        return "°C/min"
+    if isinstance(inner, Elapsed):
+        return "h"
+    return "unit"
+
+
+def knots(eng: Engine, inner: Basis) -> tuple[float, ...]:
+    """Knots of an observable: weighted-sample quartiles, distinct, none near an end."""
+    if inner not in eng.knot_cache:
+        eng.knot_cache[inner] = _knots(eng, inner)
+    return eng.knot_cache[inner]
+
+
+def _knots(eng: Engine, inner: Basis) -> tuple[float, ...]:
+    values = eng.basis(inner)
+    used = eng.w > 0
+    v = np.sort(values[used])
+    if v.size < 8 or not np.all(np.isfinite(v)) or v[-1] <= v[0]:
+        return ()
+    lo, hi = (float(x) for x in np.quantile(v, list(_RANGE)))
+    if not hi > lo:
+        return ()
+    # Rounded to a hundredth of the span's decade: readable, and the same on reruns.
+    step = 10.0 ** (math.floor(math.log10(hi - lo)) - 2)
+    out: list[float] = []
+    for q in KNOT_FRACTIONS:
+        k = round((lo + q * (hi - lo)) / step) * step
+        k = float(f"{k:.6g}")
+        below = np.searchsorted(v, k, side="right") / v.size
+        if not _MIN_SIDE <= below <= 1 - _MIN_SIDE:
+            continue
+        if out and k <= out[-1]:
+            continue
+        out.append(k)
+    return tuple(out)
+
+
+def slot_name(source: str | None) -> str:
+    """Readable name of a slot: ``offset`` or ``gain on g_<axis>``."""
+    return "offset" if source is None else f"gain on g_{source}"
+
+
+def _slot_terms(
+    inner: Basis, source: str | None, family: str, knot_values: Sequence[float]
+) -> list[Term]:
+    kind: Literal["offset", "gain"] = "offset" if source is None else "gain"
+    line = [Term(kind, inner, source=source, effect=family)]
+    return line + [Term(kind, Hinge(k, inner), source=source, effect=family) for k in knot_values]
+
+
+def _key(t: Term) -> tuple[str, Basis, str | None]:
+    return t.kind, t.basis, t.source
+
+
+def generic_variants(
+    axis: str, spec: Spec, eng: Engine, skip: Container[str]
+) -> list[tuple[str, str, Spec]]:
+    """(family, variant label, spec) of every (slot, observable) not in the model yet.
+
+    ``skip`` holds observables not to try (e.g. temperature when it does not move).
+    """
+    have = {_key(t) for t in spec.terms(axis)}
+    held = {(t.source, t.basis.inner) for t in spec.generic if isinstance(t.basis, Hinge)}
+    sources: list[str | None] = [None]
+    sources += [b for b in AXES if np.unique(eng.gravity[:, AXES.index(b)]).size >= 2]
+    out: list[tuple[str, str, Spec]] = []
+    for name, inner in observables(eng):
+        if name in skip:
+            continue
+        ks = knots(eng, inner)
+        if not ks:
+            continue
+        eng.ensure_catalogue(
+            name,
+            [
+                (t.basis, None if t.kind == "offset" else t.source)
+                for source in sources
+                for t in _slot_terms(inner, source, "", ks)
+            ],
+        )
+        unit = observable_unit(inner)
+        for source in sources:
+            if (source, inner) in held:
+                continue
+            family = f"{slot_name(source)} vs {name}"
+            terms = [t for t in _slot_terms(inner, source, family, ks) if _key(t) not in have]
+            label = "knots " + "/".join(f"{k:g}" for k in ks) + f" {unit}"
+            out.append((family, label, replace(spec, generic=(*spec.generic, *terms))))
+    return out
