@@ -377,26 +377,36 @@ def outcomes(duration_h: float, seeds: Sequence[int]) -> list[Outcome]:
     return [run_case(c, s, duration_h) for c in cases for s in seeds]
 
 
-def _verdict(o: Outcome) -> str:
-    return f"{o.case.expect}: {'met' if o.met else 'NOT met'}"
-
-
 def _ideal(o: Outcome) -> str:
     return "-" if o.ideal_mg is None else f"{o.ideal_mg:.2f}"
 
 
+def _joined(values: Sequence[str]) -> str:
+    """One value when every seed gave it, else each seed's, separated by slashes."""
+    return values[0] if len(set(values)) == 1 else " / ".join(values)
+
+
 def markdown(rows: Sequence[Outcome]) -> str:
-    """The outcomes as a Markdown table."""
+    """The outcomes as a Markdown table, one line per case (seeds separated by slashes)."""
     head = (
-        "| case | seed | effects injected | added by the diagnosis | base mg | diagnosed mg "
-        "| ratio | ideal mg | verdict |\n|---|---|---|---|---|---|---|---|---|"
+        "| case | effects injected | added by the diagnosis | base mg | diagnosed mg "
+        "| ratio | ideal mg | rule | met |\n|---|---|---|---|---|---|---|---|---|"
     )
     lines = [head]
-    for o in rows:
+    names = list(dict.fromkeys(o.case.name for o in rows))
+    for name in names:
+        group = [o for o in rows if o.case.name == name]
+        first = group[0]
+        added = _joined([", ".join(o.added) or "nothing" for o in group])
+        base = " / ".join(f"{o.base_mg:.2f}" for o in group)
+        diag = " / ".join(f"{o.diagnosed_mg:.2f}" for o in group)
+        ratio = " / ".join(f"{o.ratio:.2f}x" for o in group)
+        ideal = " / ".join(_ideal(o) for o in group)
+        met = sum(o.met for o in group)
+        verdict = "yes" if met == len(group) else ("**no**" if met == 0 else f"{met}/{len(group)}")
         lines.append(
-            f"| {o.case.name} | {o.seed} | {o.case.injected} | {', '.join(o.added) or 'nothing'} "
-            f"| {o.base_mg:.2f} | {o.diagnosed_mg:.2f} | {o.ratio:.2f}x | {_ideal(o)} "
-            f"| {_verdict(o)} |"
+            f"| {name} | {first.case.injected} | {added} | {base} | {diag} | {ratio} | {ideal} "
+            f"| {first.case.expect} | {verdict} |"
         )
     return "\n".join(lines)
 
