@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from accelcore.apps.bench import Context, Table
-from benches import bulk, diagnosis, end_to_end, kernels, memory, reading
+from benches import bulk, diagnosis, end_to_end, kernels, memory, reading, validation
 
 CASES: dict[str, Callable[[Context], list[Table]]] = {
     "kernels": kernels.run,
@@ -14,4 +14,5 @@ CASES: dict[str, Callable[[Context], list[Table]]] = {
     "diagnosis": diagnosis.run,
     "bulk": bulk.run,
     "memory": memory.run,
+    "validation": validation.run,
 }

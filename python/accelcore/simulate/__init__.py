@@ -41,7 +41,9 @@ Modules, in the order a run is built:
   resolved (:func:`default_noise_g`, :data:`DEFAULT_ORIENTATIONS`, :data:`EXTRA_COLUMNS`);
 - :mod:`~accelcore.simulate.runs`: the runs in memory (:func:`arrays`);
 - :mod:`~accelcore.simulate.writer`: the session folder on disk (:func:`session`);
-- :mod:`~accelcore.simulate.effects`: further effects that exercise the diagnosis.
+- :mod:`~accelcore.simulate.effects`: further effects that exercise the diagnosis;
+- :mod:`~accelcore.simulate.events`: session events (a tilted run, an output
+  step, a warm-up), which belong to one session, not to the part.
 
 The simulators use NumPy freely and import only the foundation
 (:mod:`accelcore.constants`, :mod:`accelcore.errors`, :mod:`accelcore.datasheets`,

@@ -22,6 +22,10 @@ structure, naming the observable):
   package stress relaxing, a mode switch of the part's internal trim);
 - :class:`CompressorCycle`: a periodic disturbance from the chamber's
   compressor cycling (a small tilt of the fixture), period about 15 min.
+
+Session events (one session's, not the part's; defined in
+:mod:`accelcore.simulate.events` and re-exported here): :class:`RunTilt`,
+:class:`OutputStep`, :class:`WarmUp`.
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ import numpy.typing as npt
 
 from accelcore._accelcore import first_order_lag
 from accelcore.simulate.chain import RunState, Stage
+from accelcore.simulate.events import OutputStep, RunTilt, WarmUp
 from accelcore.simulate.runs import SimulatedArrays
 
 __all__ = [
@@ -43,10 +48,13 @@ __all__ = [
     "Drift",
     "Misalignment",
     "OffsetCurvature",
+    "OutputStep",
+    "RunTilt",
     "SensitivityCurvature",
     "SupplySensitivity",
     "TemperatureStep",
     "ThermalLag",
+    "WarmUp",
     "attach_extra_columns",
 ]
 

@@ -1,0 +1,58 @@
+"""The cheapest cases of ``benches/validation.py``, on short sessions: scored on another session.
+
+The bench module is loaded by its path (the tests do not put the checkout's
+``benches`` package on the import path); the cases, the scoring and the rules are
+those of the table in ``docs/diagnosis.md``, with 0.5 h runs instead of 1 h.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+HOURS = 0.5
+
+
+@pytest.fixture(scope="module")
+def bench() -> ModuleType:
+    """``benches/validation.py``, imported under a private name."""
+    path = Path(__file__).resolve().parents[1] / "benches" / "validation.py"
+    spec = importlib.util.spec_from_file_location("_validation_bench", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[spec.name]
+        raise
+    return module
+
+
+def case(bench: ModuleType, name: str) -> object:
+    """The case of that name, for runs of ``HOURS``."""
+    found = [c for c in bench._cases(HOURS * 3600.0) if c.name == name]
+    assert len(found) == 1, name
+    return found[0]
+
+
+def test_a_clean_part_is_not_made_worse_on_another_session(bench: ModuleType) -> None:
+    out = bench.run_case(case(bench, "clean"), 1, HOURS)
+    assert out.diagnosed_mg <= 1.05 * out.base_mg, (out.added, out.base_mg, out.diagnosed_mg)
+    assert out.met
+    # Nothing to learn: the base model is already at the noise floor.
+    assert out.base_mg < 1.2 * out.floor_mg, (out.base_mg, out.floor_mg)
+
+
+@pytest.mark.parametrize("name", ["offset curvature", "misalignment"])
+def test_a_part_effect_is_cut_at_least_twice_on_another_session(
+    bench: ModuleType, name: str
+) -> None:
+    out = bench.run_case(case(bench, name), 2, HOURS)
+    assert out.base_mg >= 2.0 * out.ideal_mg, "the effect must stand out of the noise"
+    assert out.diagnosed_mg * 2.0 <= out.base_mg, (out.added, out.base_mg, out.diagnosed_mg)
+    assert out.met
