@@ -73,7 +73,9 @@ def effects_table(steps: Sequence[Step]) -> pd.DataFrame:
         Columns :data:`EFFECT_COLUMNS`: ``step`` (int), ``effect`` (family name),
         ``axis``, ``variant`` (of that axis, e.g. ``order 2``), ``parameter``
         (its name), ``value``, ``se`` (standard error; NaN when the parameter was
-        held fixed) and ``unit``. An axis the effect was added to that has no
+        held fixed) and ``unit``, as fitted at the step that added the effect
+        (the final coefficients are in the diagnosed calibration; a later step
+        may refine them). An axis the effect was added to that has no
         readable parameter gets one row with an empty ``parameter`` and NaN
         value. Empty (with these columns) when nothing was added.
     """
