@@ -3,7 +3,9 @@
 A :class:`Diagnosis` holds the base and the improved calibration, every step of the
 greedy selection with its in-sample and held-out figures, every candidate tried, the
 structure check and the caveats; it renders itself as tables (:meth:`Diagnosis.report`,
-:meth:`Diagnosis.heldout_table`), text and plain data for JSON. It keeps the
+:meth:`Diagnosis.heldout_table`, and the report's :meth:`Diagnosis.effects_table` and
+:meth:`Diagnosis.heldout_by_axis`, built in :mod:`~accelcore.diagnosis.tables`), text
+and plain data for JSON. It keeps the
 cross-validation engine, so any other model can be scored on the same folds
 (:meth:`Diagnosis.evaluate`). Plots are outputs: see
 :func:`accelcore.outputs.diagnosis_plot.plot_diagnosis`.
@@ -27,6 +29,7 @@ from accelcore.result.calibration import Calibration
 
 from .engine import Engine
 from .stats import wrms
+from .tables import effects_lines, effects_table, heldout_by_axis, heldout_lines, unexplained_lines
 
 __all__ = ["Diagnosis", "Step", "Structure"]
 
@@ -230,6 +233,32 @@ class Diagnosis:
                     )
         return pd.DataFrame(rows)
 
+    def effects_table(self) -> pd.DataFrame:
+        """Return the added effects: one row per parameter and axis, with se and unit.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``step``, ``effect``, ``axis``, ``variant``, ``parameter``,
+            ``value``, ``se``, ``unit`` (see
+            :func:`accelcore.diagnosis.tables.effects_table`); empty when nothing
+            was added. Filter it like any frame, e.g.
+            ``t[(t.effect == "misalignment") & (t.axis == "z")]``.
+        """
+        return effects_table(self.steps)
+
+    def heldout_by_axis(self) -> pd.DataFrame:
+        """Held-out RMS error per axis and pooled, base model against diagnosed model.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Rows ``x``, ``y``, ``z``, ``pooled``; columns ``axis``, ``base_mg``,
+            ``diagnosed_mg``, ``ratio`` (diagnosed / base) and ``cut_pct`` (see
+            :func:`accelcore.diagnosis.tables.heldout_by_axis`).
+        """
+        return heldout_by_axis(self.steps)
+
     def evaluate(self, terms: Mapping[str, Sequence[Term]]) -> pd.DataFrame:
         """Held-out and in-sample error of any model on this diagnosis' folds.
 
@@ -274,7 +303,13 @@ class Diagnosis:
         return pd.DataFrame(rows)
 
     def text(self) -> str:
-        """Plain-text rendering: the step table, warnings and unexplained structure."""
+        """Plain-text rendering: the steps, the added effects, held-out error, leftovers.
+
+        The step table (pooled errors), then the blocks "Added effects" (each
+        parameter ± standard error with its unit, per axis), "Held-out error per
+        axis" (base → diagnosed) and "Unexplained" (structure left against an
+        observable), then the warnings.
+        """
         rep = self.report()
         lines = [
             f"Diagnosis: {len(self.steps) - 1} effect(s) added; held-out folds: "
@@ -287,35 +322,27 @@ class Diagnosis:
                 f"{r['step']:>4}  {r['effect']:<22}{r['axes']:<7}{r['rms_in_after_mg']:>9.3f}"
                 f"{r['rms_out_after_mg']:>9.3f}{r['max_out_after_mg']:>9.2f}{r['cut_pct']:>6.1f}%"
             )
-            if r["variant"]:
-                lines.append(f"{'':>6}{r['variant']}")
-            if r["parameters"]:
-                lines.append(f"{'':>6}{r['parameters']}")
-        per_axis = "  ".join(
-            f"{a}: {self.steps[0].rms_out_axis_mg[a]:.3f} → {self.steps[-1].rms_out_axis_mg[a]:.3f}"
-            for a in AXES
-        )
-        lines.append(f"held-out RMS per axis (mg), base → diagnosed: {per_axis}")
-        for w in self.warnings:
-            lines.append(f"warning: {w}")
-        un = self.unexplained
-        if un:
-            lines.append("unexplained structure (no catalogue term explains it):")
-            for s in un:
-                lines.append(
-                    f"  axis {s.axis} vs {s.observable}: {s.structure_rms_mg:.3f} mg rms "
-                    f"(noise {s.noise_mg:.3f} mg, chi2 {s.chi2:.0f}/{s.dof}, p {s.p_value:.1e})"
-                    + (f"; {s.note}" if s.note else "")
-                )
-        else:
-            lines.append("no unexplained structure against any observable")
+        lines += ["", *effects_lines(self.effects_table())]
+        lines += ["", *heldout_lines(self.heldout_by_axis())]
+        lines += ["", *unexplained_lines(self.unexplained)]
+        if self.warnings:
+            lines.append("")
+            lines += [f"warning: {w}" for w in self.warnings]
         return "\n".join(lines)
 
     def __str__(self) -> str:
         return self.text()
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-data form for JSON (every step, every figure, warnings, structures)."""
+        """Plain-data form for JSON (every step, every figure, warnings, structures).
+
+        Besides ``effects`` (the family names, in order), ``steps``, ``report``,
+        ``candidates``, ``structures`` and ``unexplained``: ``added_effects``, the
+        rows of :meth:`effects_table` (``value``, ``se`` and ``unit`` per
+        parameter; None where a figure is not finite), and ``heldout_rms_mg``,
+        ``{"base": {"x", "y", "z", "pooled"}, "diagnosed": {...}, "ratio": {...},
+        "cut_pct": {...}}`` from :meth:`heldout_by_axis`.
+        """
         return {
             "scheme": self.scheme,
             "folds": list(self.folds),
@@ -325,6 +352,8 @@ class Diagnosis:
             "candidates": _records(self.candidates),
             "structures": [s.to_dict() for s in self.structures],
             "unexplained": [s.to_dict() for s in self.unexplained],
+            "added_effects": [_finite(r) for r in _records(self.effects_table())],
+            "heldout_rms_mg": _heldout_dict(self.heldout_by_axis()),
             "warnings": list(self.warnings),
             "options": dict(self.options),
             "calibration": self.calibration.to_dict(),
@@ -364,6 +393,29 @@ def _records(df: pd.DataFrame) -> list[dict[str, Any]]:
     out = []
     for rec in df.to_dict(orient="records"):
         out.append({str(k): (v.item() if isinstance(v, np.generic) else v) for k, v in rec.items()})
+    return out
+
+
+def _finite(record: Mapping[str, Any]) -> dict[str, Any]:
+    """Return the record with non-finite floats as None (strict JSON)."""
+    return {
+        k: None if isinstance(v, float) and not math.isfinite(v) else v for k, v in record.items()
+    }
+
+
+def _heldout_dict(table: pd.DataFrame) -> dict[str, dict[str, float | None]]:
+    """Return ``{"base": {axis: mg}, "diagnosed": ..., "ratio": ..., "cut_pct": ...}``."""
+    out: dict[str, dict[str, float | None]] = {}
+    for key, col in (
+        ("base", "base_mg"),
+        ("diagnosed", "diagnosed_mg"),
+        ("ratio", "ratio"),
+        ("cut_pct", "cut_pct"),
+    ):
+        out[key] = {
+            str(a): float(v) if math.isfinite(v) else None
+            for a, v in zip(table["axis"], table[col], strict=True)
+        }
     return out
 
 

@@ -45,6 +45,8 @@ th { background: #f2f2f2; } td.text { text-align: left; }
 td.ok { background: #dff0d8; } td.out { background: #f8d0d0; font-weight: bold; }
 figure { margin: 0.8em 0; } figure img { max-width: 100%; border: 1px solid #eee; }
 figcaption { font-size: 0.9em; color: #555; }
+td.text { overflow-wrap: break-word; }
+table.effects td.text, table.diagnosis td.text { max-width: 22em; }
 .scroll { overflow-x: auto; } .note { color: #8a5a00; } .muted { color: #777; }
 code, pre { font-size: 0.85em; } pre { background: #f7f7f7; padding: 0.5em; overflow-x: auto; }
 """

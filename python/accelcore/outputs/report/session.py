@@ -2,9 +2,10 @@
 
 ``OUT/index.html`` holds the datasheet comparison (the seed paper's Tables 3/4
 and 5/6, out-of-spec values highlighted), the paper's Figures 4, 6 and 7 for
-this part, the diagnosis table with residual plots before and after, the notes
-and what the data could not identify, and provenance (accelcore version,
-SHA-256 of every input file). Part of the outputs room.
+this part, the added effects (parameters ± standard error, held-out error per axis
+before and after, what stays unexplained), the diagnosis steps with residual plots
+before and after, the notes and what the data could not identify, and provenance
+(accelcore version, SHA-256 of every input file). Part of the outputs room.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from accelcore import datasheets
 from accelcore._accelcore import __version__
 from accelcore.constants import AXES
 from accelcore.diagnosis import Diagnosis, diagnose
+from accelcore.diagnosis.tables import value_se_text
 from accelcore.errors import AccelcoreError
 from accelcore.fitting.calibrate import calibrate
 from accelcore.input.session import Session, load_session
@@ -146,7 +148,6 @@ def _diagnosis_section(diag: Diagnosis) -> str:
         "effect",
         "axes",
         "variant",
-        "parameters",
         "rms_in_after_mg",
         "rms_out_before_mg",
         "rms_out_after_mg",
@@ -155,13 +156,90 @@ def _diagnosis_section(diag: Diagnosis) -> str:
     ] + [f"rms_out_{a}_after_mg" for a in AXES]
     cols = [c for c in cols if c in rep.columns]
     numeric = [c for c in cols if c.endswith("_mg") or c == "cut_pct"]
+    rename = {
+        "rms_in_after_mg": "RMS in",
+        "rms_out_before_mg": "RMS out before",
+        "rms_out_after_mg": "RMS out after",
+        "max_out_after_mg": "max out after",
+        "cut_pct": "cut %",
+    } | {f"rms_out_{a}_after_mg": f"RMS out {a} after" for a in AXES}
     effects = ", ".join(diag.effects) or "none"
     head = (
         f"<p>Effects added: <b>{escape(effects)}</b>. Held-out folds: {escape(diag.scheme)} "
         f"({escape(', '.join(diag.folds))}). Errors in mg, all axes pooled unless named; "
-        "step 0 is the base model.</p>"
+        "step 0 is the base model; the parameters of each step are under Added effects.</p>"
     )
-    return head + table(cols, rep.to_dict(orient="records"), numeric=numeric, cls="diagnosis")
+    return head + table(
+        cols, rep.to_dict(orient="records"), numeric=numeric, rename=rename, cls="diagnosis"
+    )
+
+
+def _effects_section(diag: Diagnosis) -> str:
+    """Render the added effects (± se), held-out error per axis before and after, leftovers."""
+    eff = diag.effects_table()
+    if eff.empty:
+        parts = [
+            "<p>No effect added: no candidate cut the held-out error by the required margin; "
+            "the base model is kept.</p>"
+        ]
+    else:
+        rows = []
+        for r in eff.to_dict(orient="records"):
+            v, e = value_se_text(r["value"], r["se"])
+            rows.append({**r, "value ± se": f"{v} ± {e}" if e else v})
+        parts = [
+            "<p>One row per parameter an effect added, per axis: its value ± standard error "
+            "as fitted at the step that added it.</p>",
+            table(
+                ["step", "effect", "axis", "variant", "parameter", "value ± se", "unit"],
+                rows,
+                numeric=["step", "value ± se"],
+                cls="effects",
+            ),
+        ]
+    held = diag.heldout_by_axis()
+    parts += [
+        "<h3>Held-out error per axis (RMS, mg)</h3>",
+        f"<p>On the {escape(diag.scheme)} folds; pooled is the RMS over the three axes.</p>",
+        table(
+            ["axis", "base_mg", "diagnosed_mg", "ratio", "cut_pct"],
+            [
+                {
+                    "axis": r["axis"],
+                    "base_mg": f"{r['base_mg']:.3f}",
+                    "diagnosed_mg": f"{r['diagnosed_mg']:.3f}",
+                    "ratio": f"{r['ratio']:.3f}",
+                    "cut_pct": f"{r['cut_pct']:.1f}",
+                }
+                for r in held.to_dict(orient="records")
+            ],
+            numeric=["base_mg", "diagnosed_mg", "ratio", "cut_pct"],
+            rename={
+                "base_mg": "base",
+                "diagnosed_mg": "diagnosed",
+                "ratio": "diagnosed / base",
+                "cut_pct": "cut %",
+            },
+            cls="heldout",
+        ),
+        "<h3>Unexplained</h3>",
+    ]
+    un = diag.unexplained
+    if not un:
+        parts.append("<p>None: no structure left in the residual against any observable.</p>")
+    else:
+        items = [
+            f"axis {s.axis} vs {s.observable}: {s.structure_rms_mg:.3f} mg rms "
+            f"(noise {s.noise_mg:.3f} mg, chi2 {s.chi2:.0f}/{s.dof}, p {s.p_value:.1e})"
+            + (f"; {s.note}" if s.note else "")
+            for s in un
+        ]
+        parts.append(
+            "<p>Structure the added effects do not explain, strongest first:</p><ul>"
+            + "".join(f"<li>{escape(i)}</li>" for i in items)
+            + "</ul>"
+        )
+    return "\n".join(parts)
 
 
 def _notes_section(cal: Calibration, diag: Diagnosis | None) -> str:
@@ -262,6 +340,9 @@ def session_report(
         guarded("Figure 4", lambda: _figure4(sess, cal)),
         guarded("Figure 6", lambda: _paired_figure(sess, cal, "gain")),
         guarded("Figure 7", lambda: _paired_figure(sess, cal, "offset")),
+        "</section>",
+        '<section id="effects"><h2>Added effects</h2>',
+        guarded("Added effects", lambda: _effects_section(diag)),
         "</section>",
         '<section id="diagnosis"><h2>Diagnosis</h2>',
         guarded("Diagnosis table", lambda: _diagnosis_section(diag)),
