@@ -12,7 +12,7 @@ import pytest
 from accelcore import simulate
 from accelcore.core import LeastSquares
 from accelcore.diagnosis import Diagnosis, diagnose, leg_labels, rate_c_per_min, residuals
-from accelcore.diagnosis.engine import _solve
+from accelcore.diagnosis.fits import _solve
 from accelcore.fitting.calibrate import calibrate
 from accelcore.input.session import Session
 from accelcore.model import AXES, Term, base_terms

@@ -24,6 +24,12 @@ code then asks the value what it is instead of splitting strings:
     time since the start of the run, hours (drift);
 ``extra:NAME`` (:class:`Extra`)
     an extra logged column, minus its reference value stored in the model;
+``decay(tau)`` (:class:`Decay`)
+    ``exp(-t / tau)`` of the time since the start of the run, s (a warm-up after
+    power-on; a session event, never carried into a calibration);
+``step(RUN@t0)`` (:class:`RunStep`)
+    1 in run ``RUN`` from ``t0`` seconds into it on, else 0 (the part knocked
+    mid-run; a session event);
 ``hinge(k):B`` (:class:`Hinge`)
     ``max(B - k, 0)`` of one of the observables above (``dT^1``, ``dTdt``,
     ``elapsed_h``, ``extra:NAME``) at a knot ``k`` in that basis' units: with the
@@ -56,11 +62,13 @@ __all__ = [
     "DTDT_SMOOTHING_S",
     "Basis",
     "Constant",
+    "Decay",
     "Elapsed",
     "Extra",
     "Features",
     "Hinge",
     "LaggedTemperaturePower",
+    "RunStep",
     "TemperaturePower",
     "TemperatureRate",
     "Term",
@@ -94,6 +102,8 @@ class Features:
     extras: Mapping[str, FloatArray]
     t_ref_c: float
     _lag_cache: dict[float, FloatArray] = field(default_factory=dict, repr=False)
+    #: Label of the run (record) the samples come from, for session-event bases.
+    run: str | None = None
 
     def __len__(self) -> int:
         return int(self.temperature_c.shape[0])
@@ -184,6 +194,12 @@ class Basis(ABC):
             return TemperatureRate()
         if text == "elapsed_h":
             return Elapsed()
+        m = _DECAY.match(text)
+        if m:
+            return Decay(float(m.group(1)))
+        m = _STEP.match(text)
+        if m:
+            return RunStep(m.group(1), float(m.group(2)))
         m = _HINGE.match(text)
         if m:
             return Hinge(float(m.group(1)), Basis.parse(m.group(2)))
@@ -195,6 +211,8 @@ class Basis(ABC):
 _POLY = re.compile(r"^dT\^([1-9])$")
 _LAG = re.compile(r"^lag\(([0-9.eE+-]+)\):dT\^([1-9])$")
 _HINGE = re.compile(r"^hinge\(([0-9.eE+-]+)\):(.+)$")
+_DECAY = re.compile(r"^decay\(([0-9.eE+-]+)\)$")
+_STEP = re.compile(r"^step\((.+)@([0-9.eE+-]+)\)$")
 
 
 @dataclass(frozen=True)
@@ -373,6 +391,55 @@ class Hinge(Basis):
         self, features: Features, references: Mapping[str, float] | None = None
     ) -> FloatArray:
         return np.maximum(self.inner.evaluate(features, references) - self.knot, 0.0)
+
+
+@dataclass(frozen=True)
+class Decay(Basis):
+    """``decay(tau)``: ``exp(-t / tau)``, t the time since the run's start, s (warm-up)."""
+
+    tau_s: float
+
+    stateful: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.tau_s) and self.tau_s > 0.0):
+            raise ParameterError(f"a decay time constant must be positive, s; got {self.tau_s}")
+        object.__setattr__(self, "tau_s", float(f"{self.tau_s:.6g}"))
+
+    @property
+    def name(self) -> str:  # noqa: D102
+        return f"decay({self.tau_s:.6g})"
+
+    def evaluate(  # noqa: D102
+        self, features: Features, references: Mapping[str, float] | None = None
+    ) -> FloatArray:
+        return np.exp(-features._need_time(self.name) / self.tau_s)
+
+
+@dataclass(frozen=True)
+class RunStep(Basis):
+    """``step(RUN@t0)``: 1 in run ``RUN`` from ``t0`` s after its start on, else 0."""
+
+    run: str
+    at_s: float
+
+    stateful: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        if not math.isfinite(self.at_s):
+            raise ParameterError(f"a step time must be finite, got {self.at_s}")
+        object.__setattr__(self, "at_s", float(f"{self.at_s:.6g}"))
+
+    @property
+    def name(self) -> str:  # noqa: D102
+        return f"step({self.run}@{self.at_s:.6g})"
+
+    def evaluate(  # noqa: D102
+        self, features: Features, references: Mapping[str, float] | None = None
+    ) -> FloatArray:
+        if features.run != self.run:
+            return np.zeros(len(features))
+        return (features._need_time(self.name) >= self.at_s).astype(np.float64)
 
 
 # ---------------------------------------------------------------------- terms

@@ -34,8 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore.core import BlockedLeastSquares, FoldedLeastSquares, HeldOutFit, LeastSquares
-from accelcore.errors import InsufficientDataError, ParameterError, SingularSystemError
+from accelcore.core import BlockedLeastSquares, FoldedLeastSquares, HeldOutFit
+from accelcore.errors import InsufficientDataError, ParameterError
 from accelcore.fitting.calibrate import CutFeatures, Stacked, block_weights
 from accelcore.input.records import records
 from accelcore.input.session import Session
@@ -53,6 +53,7 @@ from accelcore.model import (
 )
 from accelcore.result.calibration import Calibration, nominal_sensitivity
 
+from .fits import Fit
 from .observables import leg_labels, rate_c_per_min
 
 __all__ = ["CV", "Engine"]
@@ -87,6 +88,18 @@ class Engine:
         self.session = session
         # Contiguous pieces of one log are one record: folds never follow file cuts.
         self.records = records(session)
+        # A name of each record that does not depend on file names: its orientation,
+        # numbered when the orientation has several records.
+        counts: dict[str, int] = {}
+        for rec in self.records:
+            counts[rec.orientation] = counts.get(rec.orientation, 0) + 1
+        seen: dict[str, int] = {}
+        self.record_names: list[str] = []
+        for rec in self.records:
+            seen[rec.orientation] = seen.get(rec.orientation, 0) + 1
+            several = counts[rec.orientation] > 1
+            name = f"{rec.orientation} #{seen[rec.orientation]}" if several else rec.orientation
+            self.record_names.append(name)
         self.t_ref_c = base.t_ref_c
         window = None if not np.all(np.isfinite(base.window_c)) else base.window_c
         self.references = dict(base.references)
@@ -100,7 +113,9 @@ class Engine:
             if len(run) == 0:
                 continue
             time_s = run.time_s - run.time_s[0]
-            whole = Features(run.temperature_c, time_s, run.extras, self.t_ref_c)
+            whole = Features(
+                run.temperature_c, time_s, run.extras, self.t_ref_c, run=self.record_names[i]
+            )
             rate = rate_c_per_min(run.time_s, run.temperature_c)
             legs, kinds = leg_labels(
                 run.time_s, run.temperature_c, steady_c_per_min=steady_c_per_min
@@ -224,7 +239,7 @@ class Engine:
             if np.all(np.isfinite(values)) and float(np.std(values)) > 0
         ]
         #: Knots of each observable of the generic family (filled by that family).
-        self.knot_cache: dict[Basis, tuple[float, ...]] = {}
+        self.knot_cache: dict[tuple[Basis, tuple[float, ...]], tuple[float, ...]] = {}
         self._attempted: set[tuple[str, str]] = set()
         self._model_keys: tuple[_Key, ...] = ()
         # Catalogues of columns, their rows pushed once: (column index, folds) per lag,
@@ -510,28 +525,6 @@ class Engine:
         return y - fit.x @ fit.beta_in, self.heldout_residuals(y, fit)
 
 
-@dataclass(frozen=True)
-class Fit:
-    """Coefficients of the free terms of one axis model, in-sample and per held-out fold.
-
-    Attributes
-    ----------
-    x : ndarray, shape (n, p)
-        Design of the free terms, one row per sample.
-    beta_in : ndarray, shape (p,)
-        Fit on every sample.
-    beta_fold : ndarray, shape (n_folds, p)
-        Fit on every fold but the k-th (zeros for an empty fold).
-    rss_in : float
-        Weighted residual sum of squares of ``beta_in``, mg².
-    """
-
-    x: FloatArray
-    beta_in: FloatArray
-    beta_fold: FloatArray
-    rss_in: float
-
-
 #: A design column: a basis, alone (offset, ``None``) or times an axis' gravity (gain).
 _Key = tuple[Basis, str | None]
 
@@ -547,49 +540,6 @@ MIN_BLOCKS_PER_PART = 3
 #: Most columns of one least-squares problem in the core.
 _MAX_COLUMNS = 64
 
-#: Column names of the accumulators: the column's index, so that a rank error maps back.
-_NAMES = [str(i) for i in range(_MAX_COLUMNS)]
-
-
 def _key(term: Term) -> _Key:
     """Return the design column of a term."""
     return (term.basis, (term.source or "x") if term.kind == "gain" else None)
-
-
-def _solve(
-    acc: LeastSquares,
-    x: FloatArray,
-    y: FloatArray,
-    w: FloatArray,
-    rows: NDArray[np.bool_] | None,
-) -> tuple[FloatArray, float]:
-    """Coefficients and weighted RSS of an accumulated problem; unidentified columns get zero.
-
-    The core names the columns it cannot identify (``SingularSystemError.columns``);
-    they are dropped and the problem's rows (``x[rows]``, every row when ``rows`` is
-    None) pushed again over the remaining columns, until the design has full rank.
-    On the rows fitted, the fitted values are those of the minimum-norm solution; the
-    coefficients differ from it only in how they split among columns that those rows
-    cannot tell apart. With no row, fewer rows than columns, or no identifiable
-    column, every coefficient is zero.
-    """
-    p = x.shape[1]
-    keep = np.arange(p)
-    while acc.n_rows >= keep.size > 0:
-        try:
-            solution = acc.finish()
-        except SingularSystemError as exc:
-            drop = {int(c) for c in exc.columns}
-            keep = keep[[i for i in range(keep.size) if i not in drop]]
-            if keep.size:
-                acc = LeastSquares(int(keep.size), column_names=_NAMES[: keep.size])
-                if rows is None:
-                    acc.push(x[:, keep], y, w)
-                else:
-                    acc.push(x[np.ix_(rows, keep)], y[rows], w[rows])
-            continue
-        beta = np.zeros(p)
-        beta[keep] = solution.coefficients
-        return beta, float(solution.residual_sum_squares)
-    rw, ry = (w, y) if rows is None else (w[rows], y[rows])
-    return np.zeros(p), float((rw * ry * ry).sum())

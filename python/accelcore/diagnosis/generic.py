@@ -2,15 +2,17 @@
 
 The named families are special cases of one mechanism: a function of something
 logged, entering the model where it acts. This module offers that mechanism
-whole. Each *observable* — temperature (``dT^1``), its rate of change (``dTdt``),
-time since the start of the run (``elapsed_h``) and every extra logged column
-(``extra:NAME``) — may enter as a continuous piecewise-linear function (its line
-and :class:`~accelcore.model.Hinge` pieces at three evenly spaced knots) in one
-*slot*: the offset, or the gain on the gravity of one axis (the axis' own gravity:
-sensitivity; another axis': cross-axis coupling). Each (slot, observable) pair is a
-family of its own, named by what it depends on and where it acts, e.g. ``offset vs
-dtemp_dt_c_per_min`` or ``gain on g_y vs supply_v``; the selection tries every one
-of them on every axis by the same held-out test as the named families.
+whole. Each *observable* — temperature (``dT^1``), its rate of change (``dTdt``)
+and every extra logged column (``extra:NAME``) — may enter as a continuous
+piecewise-linear function (its line and :class:`~accelcore.model.Hinge` pieces at
+three evenly spaced knots) in one *slot*: the offset, or the gain on the gravity
+of one axis (the axis' own gravity: sensitivity; another axis': cross-axis
+coupling). Each (slot, observable) pair is a family of its own, named by what it
+depends on and where it acts, e.g. ``offset vs dtemp_dt_c_per_min`` or ``gain on
+g_y vs supply_v``; the selection tries every one of them on every axis by the
+same held-out test as the named families. Time since the run's start is left to
+the named drift and warm-up (see :func:`observables`). Should a term of time
+ever enter here, it is a session event (:func:`accelcore.diagnosis.space.is_event`).
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from accelcore.model import (
 )
 
 from .engine import Engine
-from .space import Spec
+from .space import EVENT_PREFIX, Spec
 
 __all__ = [
     "KNOT_FRACTIONS",
@@ -52,6 +54,11 @@ __all__ = [
 #: still gets knots across its range.
 KNOT_FRACTIONS = (0.25, 0.5, 0.75)
 
+#: The finer variant: eight pieces (its knots hold the coarse ones), for a sharper
+#: feature (a step at one temperature). The held-out test takes the coarse one
+#: unless the fine one is better by more than 1 %.
+FINE_KNOT_FRACTIONS = tuple(k / 8 for k in range(1, 8))
+
 _RANGE = (0.05, 0.95)
 
 #: Observables driven by temperature (not tried when the temperature does not move).
@@ -62,11 +69,17 @@ _MIN_SIDE = 0.05
 
 
 def observables(eng: Engine) -> list[tuple[str, Basis]]:
-    """Name and basis (the observable's line) of every observable of the data."""
+    """Name and basis (the observable's line) of every observable of the data.
+
+    Time since the run's start is not one: every run of a chamber session follows
+    the same profile in time, so a free function of time is confounded with the
+    temperature history and would not repeat on a session with another profile.
+    Time enters through the named families instead: a linear drift (a property of
+    the part) and a warm-up after power-on (a session event).
+    """
     out: list[tuple[str, Basis]] = [
         ("temperature_c", TemperaturePower(1)),
         ("dtemp_dt_c_per_min", TemperatureRate()),
-        ("elapsed_h", Elapsed()),
     ]
     out += [(name, Extra(name)) for name in eng.varying_extras]
     return out
@@ -83,14 +96,17 @@ def observable_unit(inner: Basis) -> str:
     return "unit"
 
 
-def knots(eng: Engine, inner: Basis) -> tuple[float, ...]:
-    """Knots of an observable: weighted-sample quartiles, distinct, none near an end."""
-    if inner not in eng.knot_cache:
-        eng.knot_cache[inner] = _knots(eng, inner)
-    return eng.knot_cache[inner]
+def knots(
+    eng: Engine, inner: Basis, fractions: Sequence[float] = KNOT_FRACTIONS
+) -> tuple[float, ...]:
+    """Knots of an observable at ``fractions`` of its 5–95 % span; distinct, none near an end."""
+    key = (inner, tuple(fractions))
+    if key not in eng.knot_cache:
+        eng.knot_cache[key] = _knots(eng, inner, fractions)
+    return eng.knot_cache[key]
 
 
-def _knots(eng: Engine, inner: Basis) -> tuple[float, ...]:
+def _knots(eng: Engine, inner: Basis, fractions: Sequence[float]) -> tuple[float, ...]:
     values = eng.basis(inner)
     used = eng.w > 0
     v = np.sort(values[used])
@@ -102,7 +118,7 @@ def _knots(eng: Engine, inner: Basis) -> tuple[float, ...]:
     # Rounded to a hundredth of the span's decade: readable, and the same on reruns.
     step = 10.0 ** (math.floor(math.log10(hi - lo)) - 2)
     out: list[float] = []
-    for q in KNOT_FRACTIONS:
+    for q in fractions:
         k = round((lo + q * (hi - lo)) / step) * step
         k = float(f"{k:.6g}")
         below = np.searchsorted(v, k, side="right") / v.size
@@ -139,22 +155,27 @@ def generic_variants(
     ``skip`` holds observables not to try (e.g. temperature when it does not move).
     """
     have = {_key(t) for t in spec.terms(axis)}
-    held = {(t.source, t.basis.inner) for t in spec.generic if isinstance(t.basis, Hinge)}
+    held = {
+        (t.source, t.basis.inner)
+        for t in (*spec.generic, *spec.events)
+        if isinstance(t.basis, Hinge)
+    }
     sources: list[str | None] = [None]
     sources += [b for b in AXES if np.unique(eng.gravity[:, AXES.index(b)]).size >= 2]
     out: list[tuple[str, str, Spec]] = []
     for name, inner in observables(eng):
         if name in skip:
             continue
-        ks = knots(eng, inner)
-        if not ks:
+        coarse = knots(eng, inner)
+        if not coarse:
             continue
+        fine = knots(eng, inner, FINE_KNOT_FRACTIONS)
         eng.ensure_catalogue(
             name,
             [
                 (t.basis, None if t.kind == "offset" else t.source)
                 for source in sources
-                for t in _slot_terms(inner, source, "", ks)
+                for t in _slot_terms(inner, source, "", sorted({*coarse, *fine}))
             ],
         )
         unit = observable_unit(inner)
@@ -162,7 +183,14 @@ def generic_variants(
             if (source, inner) in held:
                 continue
             family = f"{slot_name(source)} vs {name}"
-            terms = [t for t in _slot_terms(inner, source, family, ks) if _key(t) not in have]
-            label = "knots " + "/".join(f"{k:g}" for k in ks) + f" {unit}"
-            out.append((family, label, replace(spec, generic=(*spec.generic, *terms))))
+            event = isinstance(inner, Elapsed)
+            if event:
+                family = EVENT_PREFIX + family
+            for ks in (coarse, fine) if len(fine) > len(coarse) else (coarse,):
+                terms = [t for t in _slot_terms(inner, source, family, ks) if _key(t) not in have]
+                label = "knots " + "/".join(f"{k:g}" for k in ks) + f" {unit}"
+                if event:
+                    out.append((family, label, replace(spec, events=(*spec.events, *terms))))
+                else:
+                    out.append((family, label, replace(spec, generic=(*spec.generic, *terms))))
     return out

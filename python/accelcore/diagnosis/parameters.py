@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -18,17 +19,19 @@ from accelcore.fitting.calibrate import fit_axis
 from accelcore.model import (
     AXES,
     Basis,
+    Decay,
     Elapsed,
     Extra,
     Hinge,
     LaggedTemperaturePower,
+    RunStep,
     TemperatureRate,
 )
 from accelcore.result.calibration import AxisModel, nominal_sensitivity
 
 from .engine import Engine
 from .generic import observable_unit
-from .search import tau_se
+from .search import profile_se, tau_se, with_warm_up
 from .space import Spec
 
 __all__ = ["added_parameters", "fit_models"]
@@ -77,7 +80,9 @@ def added_parameters(
             order = t.basis.temperature_order
             per = _per_unit(t.basis)
             if t.kind == "offset":
-                if per is not None:
+                if isinstance(t.basis, (Decay, RunStep)):
+                    unit = "mg"  # at the run's start; the size of the step
+                elif per is not None:
                     unit = f"mg/{per}"
                 elif isinstance(t.basis, Elapsed):
                     unit = "mg/h"
@@ -99,6 +104,10 @@ def added_parameters(
                     "unit": unit,
                 }
             )
+            if isinstance(t.basis, Decay):
+                tau = t.basis.tau_s
+                se_tau = profile_se(eng, a, partial(with_warm_up, specs[a]), tau)
+                out.append({"axis": a, "name": "tau", "value": tau, "se": se_tau, "unit": "s"})
     return out
 
 

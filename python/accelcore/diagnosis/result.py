@@ -151,6 +151,12 @@ class Diagnosis:
         ``runs``, ``legs`` or ``blocks``.
     options : dict
         Every option used.
+    session_events : tuple of dict
+        Things that happened in one run of this session (an output step, a run
+        whose gravity was tilted), found on the residual after the selection:
+        one row per parameter (``event``, ``axis``, ``parameter``, ``value``,
+        ``se``, ``unit``). They were fitted beside the model, so that they do not
+        bias it, and are not in :attr:`calibration`.
     """
 
     base: Calibration
@@ -162,6 +168,7 @@ class Diagnosis:
     folds: tuple[str, ...]
     scheme: str
     options: dict[str, Any]
+    session_events: tuple[dict[str, Any], ...] = ()
     _engine: Engine | None = field(default=None, repr=False, compare=False)
 
     def _data(self) -> Engine:
@@ -324,6 +331,14 @@ class Diagnosis:
             )
         lines += ["", *effects_lines(self.effects_table())]
         lines += ["", *heldout_lines(self.heldout_by_axis())]
+        if self.session_events:
+            lines += ["", "Session events (this session only, fitted beside the model, not in it):"]
+            lines += [
+                f"  {e['event']}: {e['axis']} {e['value']:.3g}"
+                + (f" ± {e['se']:.2g}" if math.isfinite(e["se"]) else "")
+                + f" {e['unit']}"
+                for e in self.session_events
+            ]
         lines += ["", *unexplained_lines(self.unexplained)]
         if self.warnings:
             lines.append("")
@@ -354,6 +369,7 @@ class Diagnosis:
             "unexplained": [s.to_dict() for s in self.unexplained],
             "added_effects": [_finite(r) for r in _records(self.effects_table())],
             "heldout_rms_mg": _heldout_dict(self.heldout_by_axis()),
+            "session_events": [_finite(e) for e in self.session_events],
             "warnings": list(self.warnings),
             "options": dict(self.options),
             "calibration": self.calibration.to_dict(),

@@ -9,20 +9,54 @@ pairs of effects this data cannot tell apart.
 from __future__ import annotations
 
 import math
-from collections.abc import Container, Mapping, Sequence
+from collections.abc import Callable, Container, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore.model import AXES, Elapsed, Extra, LaggedTemperaturePower, TemperaturePower
+from accelcore.model import (
+    AXES,
+    Decay,
+    Elapsed,
+    Extra,
+    LaggedTemperaturePower,
+    TemperaturePower,
+    Term,
+)
 
 from .engine import CV, Engine
 from .generic import generic_variants
 from .space import Spec, with_tau
 from .structure import MIN_TEMPERATURE_SPAN_C, temperature_span_c
 
-__all__ = ["confounding", "search_tau", "tau_se", "variants"]
+__all__ = [
+    "confounding",
+    "profile_se",
+    "search_1d",
+    "search_tau",
+    "tau_se",
+    "variants",
+    "warm_up_range_s",
+    "with_warm_up",
+]
+
+#: Family name of the warm-up (a session event).
+WARM_UP = "event: warm-up"
+
+
+def warm_up_range_s(eng: Engine) -> tuple[float, float]:
+    """Search range of a warm-up's time constant: 5 s to a third of the longest run."""
+    longest = float(eng.elapsed_s.max()) if eng.n else 0.0
+    return 5.0, max(10.0, longest / 3.0)
+
+
+def with_warm_up(spec: Spec, tau: float) -> Spec:
+    """Return ``spec`` with an offset decaying as ``exp(-t / tau)`` from each run's start."""
+    term = Term("offset", Decay(tau), effect=WARM_UP)
+    kept = tuple(t for t in spec.events if not isinstance(t.basis, Decay))
+    return replace(spec, events=(*kept, term))
+
 
 FloatArray = NDArray[np.float64]
 
@@ -83,12 +117,25 @@ def search_tau(
     The trials are scored on a stride of the rows (:meth:`Engine.cv_coarse`); the
     time constant found is cross-validated on every row.
     """
+    return search_1d(eng, axis, lambda tau: with_tau(spec, variant, tau), tau_range_s)
+
+
+def search_1d(
+    eng: Engine, axis: str, make: Callable[[float], Spec], range_s: tuple[float, float]
+) -> tuple[float, CV]:
+    """Search a positive time constant of a model (``make(tau)``) on held-out SSE.
+
+    A 12-point log grid over ``range_s``, then golden section around the best; the
+    trials are scored on a stride of the rows (:meth:`Engine.cv_coarse`) and the
+    value found is cross-validated on every row.
+    """
     cache: dict[float, float] = {}
+    tau_range_s = range_s
 
     def score(tau: float) -> float:
         tau = float(f"{tau:.3g}")
         if tau not in cache:
-            cache[tau] = eng.cv_coarse(axis, with_tau(spec, variant, tau).terms(axis))
+            cache[tau] = eng.cv_coarse(axis, make(tau).terms(axis))
         return cache[tau]
 
     lo, hi = math.log(tau_range_s[0]), math.log(tau_range_s[1])
@@ -109,7 +156,7 @@ def search_tau(
             d = a + golden * (b - a)
             fd = score(math.exp(d))
     best = min(cache, key=lambda t: cache[t])
-    return best, eng.cv(axis, with_tau(spec, variant, best).terms(axis))
+    return best, eng.cv(axis, make(best).terms(axis))
 
 
 def tau_se(eng: Engine, axis: str, spec: Spec) -> float:
@@ -118,10 +165,15 @@ def tau_se(eng: Engine, axis: str, spec: Spec) -> float:
     tau = spec.tau if spec.tau is not None else spec.rate_tau
     if tau is None:
         return math.nan
+    return profile_se(eng, axis, lambda t: with_tau(spec, variant, t), tau)
+
+
+def profile_se(eng: Engine, axis: str, make: Callable[[float], Spec], tau: float) -> float:
+    """Return the standard error of a time constant from the in-sample SSE curvature."""
     h = 0.05 * tau
-    s0 = eng.cv(axis, spec.terms(axis))
-    sp = eng.cv(axis, with_tau(spec, variant, tau + h).terms(axis)).sse_in
-    sm = eng.cv(axis, with_tau(spec, variant, max(tau - h, 1e-3)).terms(axis)).sse_in
+    s0 = eng.cv(axis, make(tau).terms(axis))
+    sp = eng.cv(axis, make(tau + h).terms(axis)).sse_in
+    sm = eng.cv(axis, make(max(tau - h, 1e-3)).terms(axis)).sse_in
     curv = (sp - 2 * s0.sse_in + sm) / (h * h)
     p = len(s0.terms)
     sigma2 = s0.sse_in / max(eng.n - p - 1, 1)

@@ -21,7 +21,6 @@ calibration (:func:`_improved_calibration`) and check the final residual for str
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any, Literal
@@ -30,20 +29,21 @@ import numpy as np
 import pandas as pd
 
 from accelcore.errors import ParameterError
-from accelcore.fitting.calibrate import calibrate
 from accelcore.input.quality import QualityIssue, check_session
 from accelcore.input.session import Session
-from accelcore.model import AXES
+from accelcore.model import AXES, Decay, RunStep
 from accelcore.result.calibration import Calibration
 
 from . import search
+from .ends import improved_calibration, starting_point, usable_extras
 from .engine import CV, Engine
+from .events import find_run_events
 from .generic import TEMPERATURE_OBSERVABLES
 from .observables import STEADY_C_PER_MIN
 from .parameters import added_parameters, fit_models
 from .result import Diagnosis, Step
 from .search import confounding, variants
-from .space import FAMILIES, Spec, spec_from_terms, with_tau
+from .space import FAMILIES, Spec, is_event, with_tau
 from .stats import paired_test, wrms
 from .structure import (
     MIN_TEMPERATURE_SPAN_C,
@@ -110,6 +110,8 @@ class _Selection:
         self.cv_cur = {a: eng.cv(a, specs[a].terms(a)) for a in AXES}
         self.steps: list[Step] = []
         self.cand_rows: list[dict[str, Any]] = []
+        self.notes: list[str] = []
+        self.session_events: list[dict[str, Any]] = []
 
     def run(self, max_steps: int) -> None:
         """Record the base model as step 0, then add effects until none is accepted."""
@@ -140,6 +142,14 @@ class _Selection:
     def _tried(self, family: str, axis: str) -> list[_Tried]:
         """Every variant of ``family`` on ``axis``, cross-validated."""
         spec, rules = self.specs[axis], self.rules
+        if family == "warm_up":
+            if any(isinstance(t.basis, Decay) for t in spec.events):
+                return []
+            range_s = search.warm_up_range_s(self.eng)
+            tau, cv = search.search_1d(
+                self.eng, axis, lambda t: search.with_warm_up(spec, t), range_s
+            )
+            return [(search.WARM_UP, f"tau {tau:.3g} s", cv, search.with_warm_up(spec, tau))]
         if family != "thermal_lag":
             return [
                 (fam, label, self.eng.cv(axis, s.terms(axis)), s)
@@ -178,11 +188,12 @@ class _Selection:
     def _judge(self, step: int, axis: str, family: str, opts: Sequence[_Tried]) -> Candidate:
         """Pick the most parsimonious variant within 1 % of the best; test it; record it."""
         cur = self.cv_cur[axis]
-        best_rms = min(o[2].rms_out for o in opts)
-        _, label, cv, spec = next(o for o in opts if o[2].rms_out <= best_rms * 1.01)
+        finite = [o for o in opts if math.isfinite(o[2].rms_out)] or list(opts[:1])
+        best_rms = min(o[2].rms_out for o in finite)
+        _, label, cv, spec = next((o for o in finite if o[2].rms_out <= best_rms * 1.01), finite[0])
         cut = 1.0 - cv.rms_out / cur.rms_out if cur.rms_out > 0 else 0.0
         t, p = paired_test(cur.sse_blocks - cv.sse_blocks)
-        ok = cut >= self.rules.min_improvement and p < self.rules.alpha
+        ok = cut >= self.rules.min_improvement and p < self.rules.alpha and math.isfinite(cut)
         self.cand_rows.append(
             {
                 "step": step,
@@ -198,6 +209,38 @@ class _Selection:
             }
         )
         return Candidate(family, axis, label, spec, cv, cut, t, p, ok)
+
+    def add_run_events(self) -> None:
+        """Find steps and run levels in the residual (:mod:`.events`); fit them as events.
+
+        They enter the specs (so the final fit is not biased by them) and
+        :attr:`session_events` (one row per event parameter), not the steps: no
+        held-out fold can judge a thing that happened in one run.
+        """
+        specs, lines, notes = find_run_events(self.eng, self.specs, self.rules.alpha)
+        self.notes += notes
+        if not lines:
+            return
+        self.specs = specs
+        models, _, _ = fit_models(self.eng, self.specs)
+        for a in AXES:
+            m = models[a]
+            for t, c, var, est in zip(
+                m.terms, m.coefficients, np.diag(m.covariance), m.estimated, strict=True
+            ):
+                if is_event(t.effect) and isinstance(t.basis, RunStep):
+                    k = 1000.0 / self.eng.scale[a]
+                    se = math.sqrt(max(float(var), 0.0)) * k if est else math.nan
+                    self.session_events.append(
+                        {
+                            "event": t.effect[len("event: ") :],
+                            "axis": a,
+                            "parameter": t.name,
+                            "value": float(c) * k,
+                            "se": se,
+                            "unit": "mg",
+                        }
+                    )
 
     def _revisit_lags(self) -> None:
         """Search again the lag of every axis that has one (variant and tau), keep the better."""
@@ -252,8 +295,8 @@ def _best_family(
 ) -> str | None:
     """Return the family that cuts held-out SSE most over the axes accepting it.
 
-    A generic family (``... vs ...``) wins only by :data:`GENERIC_MARGIN` over the
-    best named family.
+    A generic family (``... vs ...``) or a session event wins only by
+    :data:`GENERIC_MARGIN` over the best named family of the part.
     """
     best: dict[bool, tuple[str | None, float]] = {False: (None, 0.0), True: (None, 0.0)}
     for fam, cands in by_family.items():
@@ -262,7 +305,7 @@ def _best_family(
             for c in cands
             if c.accepted
         )
-        generic = " vs " in fam
+        generic = " vs " in fam or is_event(fam)
         if gain > best[generic][1]:
             best[generic] = (fam, gain)
     (named, g_named), (generic_fam, g_generic) = best[False], best[True]
@@ -355,7 +398,7 @@ def diagnose(
     Never emits Python warnings; caveats are in :attr:`Diagnosis.warnings`.
     """
     _check_options(families, max_steps, min_improvement, alpha)
-    base, specs, notes = _starting_point(session, calibration, t_ref_c, window_c)
+    base, specs, notes = starting_point(session, calibration, t_ref_c, window_c)
     eng = Engine(
         session,
         base,
@@ -364,8 +407,8 @@ def diagnose(
         steady_c_per_min=steady_c_per_min,
         max_order=max_order,
     )
-    usable_extras = _usable_extras(session, eng, extras, notes)
-    confounded = confounding(eng, specs, usable_extras, confound_r)
+    extras_used = usable_extras(session, eng, extras, notes)
+    confounded = confounding(eng, specs, extras_used, confound_r)
     warn = list(notes)
     if eng.n_folds < 2:
         warn.append("fewer than two held-out folds: nothing can be selected")
@@ -387,7 +430,7 @@ def diagnose(
         skip |= set(TEMPERATURE_OBSERVABLES)
     rules = _Rules(
         tried,
-        usable_extras,
+        extras_used,
         frozenset(skip),
         max_order,
         tau_range_s,
@@ -397,11 +440,13 @@ def diagnose(
     specs_at_start = dict(specs)
     selection = _Selection(eng, specs, rules)
     selection.run(max_steps)
+    if "run_events" in tried and eng.n_folds >= 1:
+        selection.add_run_events()
     added = [s.effect for s in selection.steps[1:]]
     if any(spec.cross for spec in specs_at_start.values()):
         added.append("misalignment")  # the base model holds the cross-axis gain
-    warn = [c.text(added) for c in confounded] + warn
-    improved = _improved_calibration(base, eng, selection.specs, selection.steps)
+    warn = [c.text(added) for c in confounded] + warn + selection.notes
+    improved = improved_calibration(base, eng, selection.specs, selection.steps)
     resid = {a: eng.residuals(a, selection.specs[a].terms(a))[0] for a in AXES}
     found = structures(
         eng, resid, n_bins=n_bins, alpha=alpha_structure, min_structure_mg=min_structure_mg
@@ -417,7 +462,7 @@ def diagnose(
         "max_order": max_order,
         "tau_range_s": list(tau_range_s),
         "families": list(families),
-        "extras": usable_extras,
+        "extras": extras_used,
         "confound_r": confound_r,
         "n_bins": n_bins,
         "alpha_structure": alpha_structure,
@@ -433,6 +478,7 @@ def diagnose(
         folds=tuple(eng.fold_names),
         scheme=eng.scheme,
         options=options,
+        session_events=tuple(selection.session_events),
         _engine=eng,
     )
 
@@ -480,88 +526,3 @@ def _check_options(
         raise ParameterError(f"unknown effect families {unknown}; available: {list(FAMILIES)}")
     if max_steps < 0 or not 0 <= min_improvement < 1 or not 0 < alpha < 1:
         raise ParameterError("max_steps >= 0, 0 <= min_improvement < 1 and 0 < alpha < 1 needed")
-
-
-def _starting_point(
-    session: Session,
-    calibration: Calibration | None,
-    t_ref_c: float,
-    window_c: tuple[float, float] | None,
-) -> tuple[Calibration, dict[str, Spec], list[str]]:
-    """Return the base calibration, each axis' point in the model space, and notes.
-
-    A given calibration outside the model space (or the seed paper's per-pair
-    method) is replaced by the joint fit of the seed paper's model, with a note.
-    """
-    notes: list[str] = []
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        if calibration is None:
-            base = calibrate(session, t_ref_c=t_ref_c, window_c=window_c)
-        else:
-            base = calibration
-    specs: dict[str, Spec] = {}
-    for a in AXES:
-        if a not in base.axes:
-            raise ParameterError(f"the calibration has no model of axis {a}")
-        spec = spec_from_terms(a, base.axes[a].terms) if base.method != "paper" else None
-        if spec is None:
-            notes.append(
-                f"axis {a}: the starting model is outside the diagnosis' model space "
-                f"(method {base.method}); started from the seed paper's model, joint fit"
-            )
-            spec = Spec()
-        specs[a] = spec
-    if calibration is not None and (
-        base.method == "paper" or any(spec_from_terms(a, base.axes[a].terms) is None for a in AXES)
-    ):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            win = None if not np.all(np.isfinite(base.window_c)) else base.window_c
-            base = calibrate(session, t_ref_c=base.t_ref_c, window_c=win)
-    return base, specs, notes
-
-
-def _usable_extras(
-    session: Session, eng: Engine, extras: Sequence[str] | None, notes: list[str]
-) -> list[str]:
-    """Extra columns to try: those asked for (default all) that are present and vary."""
-    usable = [
-        e
-        for e in (session.extra_columns if extras is None else extras)
-        if e in eng.extras and float(np.nanstd(eng.extras[e])) > 0
-    ]
-    if extras is not None:
-        missing = [e for e in extras if e not in usable]
-        if missing:
-            notes.append(f"extra columns not usable (absent or constant): {', '.join(missing)}")
-    return usable
-
-
-def _improved_calibration(
-    base: Calibration, eng: Engine, specs: Mapping[str, Spec], steps: Sequence[Step]
-) -> Calibration:
-    """Return the calibration of the chosen terms (core least squares), method ``diagnosed``."""
-    models, fixed, fit_notes = fit_models(eng, specs)
-    added = [
-        f"{s.effect} on {','.join(s.axes)} ({'; '.join(s.variant.values())})" for s in steps[1:]
-    ]
-    return Calibration(
-        method="diagnosed",
-        units=base.units,
-        t_ref_c=base.t_ref_c,
-        window_c=base.window_c,
-        temperature_range_c=(float(eng.temperature.min()), float(eng.temperature.max())),
-        axes=models,
-        not_identified=tuple(fixed),
-        notes=(*base.notes, *fit_notes, *(f"diagnosis added {x}" for x in added)),
-        sensor=base.sensor,
-        serial=base.serial,
-        references=dict(eng.references),
-        options={
-            **base.options,
-            "method": "diagnosed",
-            "diagnosis": {"effects": [s.effect for s in steps[1:]], "scheme": eng.scheme},
-        },
-        provenance=dict(base.provenance),
-    )

@@ -23,7 +23,7 @@ from accelcore.model import (
     Term,
 )
 
-__all__ = ["FAMILIES", "Spec", "spec_from_terms", "with_tau"]
+__all__ = ["EVENT_PREFIX", "FAMILIES", "Spec", "is_event", "spec_from_terms", "with_tau"]
 
 #: Candidate effect families of the catalogue, in the order they are tried.
 FAMILIES = (
@@ -34,7 +34,18 @@ FAMILIES = (
     "drift",
     "extra",
     "smooth",
+    "warm_up",
+    "run_events",
 )
+
+#: Effects whose name starts so are session events: they correct this session's fit
+#: and are reported, never carried into a calibration (see :func:`is_event`).
+EVENT_PREFIX = "event: "
+
+
+def is_event(effect: str) -> bool:
+    """Tell whether an effect (a term's or a family's) is a session event."""
+    return effect.startswith(EVENT_PREFIX)
 
 
 @dataclass(frozen=True)
@@ -59,6 +70,10 @@ class Spec:
         Terms of the generic family (``smooth``, :mod:`accelcore.diagnosis.generic`):
         the line and hinges of an observable in the offset or in a gain, each term
         tagged with its effect (e.g. ``offset vs temperature_c``).
+    events : tuple of Term
+        Session-event terms (effect ``event: ...``: a warm-up, a step in one run,
+        anything in elapsed time): fitted with the rest, never carried into a
+        calibration.
     """
 
     tau: float | None = None
@@ -69,6 +84,7 @@ class Spec:
     drift: bool = False
     extras: tuple[str, ...] = ()
     generic: tuple[Term, ...] = ()
+    events: tuple[Term, ...] = ()
 
     def temp_basis(self, k: int) -> Basis:
         """Return the ``k``-th temperature basis (lagged with ``tau``)."""
@@ -92,6 +108,7 @@ class Spec:
             out.append(Term("offset", Elapsed(), effect="drift"))
         out += [Term("offset", Extra(e), effect="extra") for e in self.extras]
         out += self.generic
+        out += self.events
         if self.tau is not None:
             out = [
                 replace(t, effect="thermal_lag")
@@ -99,7 +116,14 @@ class Spec:
                 else t
                 for t in out
             ]
-        return tuple(out)
+        # One column once: a generic line may be a named family's term (drift, extra).
+        seen: set[tuple[str, Basis, str | None]] = set()
+        unique = []
+        for t in out:
+            if (t.kind, t.basis, t.source) not in seen:
+                seen.add((t.kind, t.basis, t.source))
+                unique.append(t)
+        return tuple(unique)
 
 
 def spec_from_terms(axis: str, terms: Sequence[Term]) -> Spec | None:
@@ -109,6 +133,9 @@ def spec_from_terms(axis: str, terms: Sequence[Term]) -> Spec | None:
     plain = {t.basis for t in terms if t.kind == "offset"}
     for t in terms:
         basis = t.basis
+        if is_event(t.effect):
+            spec = replace(spec, events=(*spec.events, t))
+            continue
         if _generic(t, axis):
             spec = replace(spec, generic=(*spec.generic, t))
             continue

@@ -145,6 +145,7 @@ class CutFeatures(Features):
             None if whole.time_s is None else whole.time_s[keep],
             {k: v[keep] for k, v in whole.extras.items()},
             whole.t_ref_c,
+            run=whole.run,
         )
         obj._whole = whole
         obj._keep = keep

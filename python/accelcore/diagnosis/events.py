@@ -1,0 +1,214 @@
+"""Session events in one run: an offset step mid-run, a run whose gravity was tilted.
+
+A part knocked mid-sweep, or a positioner that left one run a degree or two off,
+is not a property of the part: it happened in this session, in one run. No
+held-out fold can predict it from the other runs, so it is found on the fit's own
+residual, after the part's effects are chosen, and fitted beside them (so that it
+does not bias them) as a term of that run only; it is reported and never carried
+into the calibration (:func:`accelcore.diagnosis.space.is_event`).
+
+* **Step** (:class:`~accelcore.model.RunStep` at ``t0``): in each run, the local
+  jump of the residual, ``mean(r[k:k+W]) - mean(r[k-W:k])`` over windows of ``W``
+  samples, in units of its white-noise standard error and pooled over the three
+  axes (chi-square, 3 degrees of freedom); a smooth leftover trend gives no jump.
+  The largest is a step when its p-value, Bonferroni-corrected over the
+  independent windows of every run, is below ``alpha``.
+* **Run level** (a step at the run's start: a tilted gravity direction, seen on
+  the axes that should read 0 g in that run). With the full 3x3 gain a tilt of
+  one run of a ± pair is, in the least-squares sense, half misalignment and half
+  an offset the other runs contradict. Each zero-g run of each axis is tried as
+  an event; the one that cuts the residual most is kept, and between runs that
+  cut it alike (the two runs of a pair) the one that leaves the smaller sum of
+  |cross-axis gain| + |event| (one event explains it, rather than a misalignment
+  and an event that cancel). It is kept when the run's level, against the
+  scatter of its own 5-minute block means, passes the same corrected test.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from accelcore.model import AXES, Constant, RunStep, Term
+
+from .engine import Engine
+from .space import EVENT_PREFIX, Spec
+from .stats import chi2_sf, t_sf
+
+__all__ = ["find_run_events"]
+
+FloatArray = NDArray[np.float64]
+
+#: Most run events looked for in one session.
+MAX_EVENTS = 6
+
+#: Length of the blocks whose means give a run level's scatter, s.
+_LEVEL_BLOCK_S = 300.0
+
+
+def _noise_mg(r: FloatArray) -> float:
+    """White-noise level of a residual from its first differences (robust)."""
+    if r.size < 3:
+        return math.nan
+    d = np.diff(r)
+    return float(np.median(np.abs(d - np.median(d))) / 0.6745 / math.sqrt(2.0))
+
+
+def _runs(eng: Engine) -> list[NDArray[np.int64]]:
+    """Sample indices of each run, in time order."""
+    out = []
+    for r in np.unique(eng.sample_run):
+        idx = np.flatnonzero(eng.sample_run == r)
+        out.append(idx[np.argsort(eng.elapsed_s[idx], kind="stable")])
+    return out
+
+
+def _best_jump(
+    resid: Mapping[str, FloatArray], idx: NDArray[np.int64], time_s: FloatArray
+) -> tuple[int, float, int]:
+    """Position, pooled chi-square and window of the largest local jump in one run.
+
+    Only positions whose two windows are contiguous in time count: across a gap
+    (samples outside the window, a dropout) any slow structure jumps.
+    """
+    n = idx.size
+    w = max(10, min(120, n // 20))
+    if n < 4 * w:
+        return -1, 0.0, w
+    t = time_s[idx]
+    dt = float(np.median(np.diff(t)))
+    k_all = np.arange(w, n - w + 1)
+    contiguous = (t[k_all + w - 1] - t[k_all - w]) <= 1.5 * (2 * w - 1) * dt
+    stat = np.zeros(n - 2 * w + 1)
+    for a in AXES:
+        r = resid[a][idx]
+        c = np.concatenate([[0.0], np.cumsum(r)])
+        k = np.arange(w, n - w + 1)
+        jump = (c[k + w] - c[k]) / w - (c[k] - c[k - w]) / w
+        # Scale of the jump from the run itself (robust: a step moves ~2W of the
+        # positions only), so that slow structure and correlated noise widen it.
+        scale = 1.4826 * float(np.median(np.abs(jump - np.median(jump))))
+        scale = max(scale, _noise_mg(r) * math.sqrt(2.0 / w))
+        if not scale > 0:
+            continue
+        stat += (jump / scale) ** 2
+    stat[~contiguous] = 0.0
+    j = int(np.argmax(stat))
+    return j + w, float(stat[j]), w
+
+
+def find_run_events(
+    eng: Engine, specs: Mapping[str, Spec], alpha: float
+) -> tuple[dict[str, Spec], list[str], list[str]]:
+    """Find steps and run levels in the residual of ``specs``; return specs with them.
+
+    Returns the specs with the events' terms added (``Spec.events``), one line per
+    event found, and notes (jumps seen in most runs, which are not events).
+    """
+    specs = dict(specs)
+    lines: list[str] = []
+    notes: list[str] = []
+    runs = _runs(eng)
+    labels = [eng.record_names[int(eng.sample_run[idx[0]])] for idx in runs]
+    resid = {a: eng.residuals(a, specs[a].terms(a))[0] for a in AXES}
+    # Steps: one pass over every run, the corrected test over all windows.
+    n_windows = sum(max(1, idx.size // max(10, min(120, idx.size // 20))) for idx in runs)
+    steps: list[Term] = []
+    for idx, label in zip(runs, labels, strict=True):
+        k, stat, _ = _best_jump(resid, idx, eng.elapsed_s)
+        if k < 0 or chi2_sf(stat, 3) * n_windows >= alpha:
+            continue
+        t0 = float(f"{eng.elapsed_s[idx[k]]:.4g}")
+        effect = f"{EVENT_PREFIX}step in {label} at {t0:g} s"
+        steps.append(Term("offset", RunStep(label, t0), effect=effect))
+    if len(runs) >= 2 and 2 * len(steps) >= len(runs):
+        # A jump in most runs is the part's (a step at one temperature, a cycle of the
+        # chamber), not something that happened to one run: not an event.
+        notes.append(
+            f"jumps in {len(steps)} of {len(runs)} runs: not treated as session events "
+            "(an effect that repeats in most runs is the part's or the chamber's)"
+        )
+        steps = []
+    for term in steps[:MAX_EVENTS]:
+        for a in AXES:
+            specs[a] = replace(specs[a], events=(*specs[a].events, term))
+        lines.append(term.effect)
+    # Run levels on the axes that read 0 g in the run, greedily.
+    for _ in range(MAX_EVENTS - len(lines)):
+        found = _best_level(eng, specs, runs, labels, alpha)
+        if found is None:
+            break
+        axis, spec, effect = found
+        specs[axis] = spec
+        lines.append(f"{effect} on {axis}")
+    return specs, lines, notes
+
+
+def _best_level(
+    eng: Engine,
+    specs: Mapping[str, Spec],
+    runs: list[NDArray[np.int64]],
+    labels: list[str],
+    alpha: float,
+) -> tuple[str, Spec, str] | None:
+    """Return the run level that cuts an axis' residual most, if it passes the test."""
+    n_tests = sum(1 for a in AXES for idx in runs if abs(eng.gravity[idx[0], AXES.index(a)]) < 0.5)
+    best: tuple[float, float, str, Spec, str] | None = None
+    for a in AXES:
+        a_i = AXES.index(a)
+        spec = specs[a]
+        base = eng.cv(a, spec.terms(a))
+        resid = eng.residuals(a, spec.terms(a))[0]
+        for idx, label in zip(runs, labels, strict=True):
+            if abs(eng.gravity[idx[0], a_i]) >= 0.5:
+                continue
+            effect = f"{EVENT_PREFIX}level of run {label}"
+            if any(t.effect == effect for t in spec.events):
+                continue
+            if not _level_passes(eng, resid, idx, n_tests, alpha):
+                continue
+            term = Term("offset", RunStep(label, 0.0), effect=effect)
+            trial = replace(spec, events=(*spec.events, term))
+            cut = base.sse_in - eng.cv(a, trial.terms(a)).sse_in
+            fit = eng.fit(a, trial.terms(a))
+            free = eng.free_terms(a, trial.terms(a))
+            l1 = sum(
+                abs(float(c))
+                for t, c in zip(free, fit.beta_in, strict=True)
+                if t.effect == effect
+                or (t.kind == "gain" and t.source != a and t.basis == Constant())
+            )
+            key = (round(cut, 6), -l1)
+            if best is None or key > (best[0], best[1]):
+                best = (key[0], key[1], a, trial, effect)
+    if best is None or best[0] <= 0:
+        return None
+    return best[2], best[3], best[4]
+
+
+def _level_passes(
+    eng: Engine, resid: FloatArray, idx: NDArray[np.int64], n_tests: int, alpha: float
+) -> bool:
+    """Tell whether a run's mean residual stands out of the scatter of its block means."""
+    t = eng.elapsed_s[idx]
+    block = np.floor((t - t[0]) / _LEVEL_BLOCK_S).astype(np.int64)
+    if block.max() < 2:
+        return False
+    w = eng.w[idx]
+    sums = np.bincount(block, weights=w * resid[idx])
+    wts = np.bincount(block, weights=w)
+    means = sums[wts > 0] / wts[wts > 0]
+    m = means.size
+    if m < 3:
+        return False
+    se = float(np.std(means, ddof=1)) / math.sqrt(m)
+    if not se > 0:
+        return False
+    # Student's t of the run's level against its block means' scatter (which holds
+    # the run's own slow structure), two-sided, over every (axis, run) tried.
+    t_stat = abs(float(np.mean(means))) / se
+    return 2.0 * t_sf(t_stat, m - 1) * n_tests < alpha

@@ -1,0 +1,85 @@
+"""Fits of the engine: the coefficients of one axis model, and the test oracle's solve.
+
+:class:`Fit` holds the coefficients of the free terms of one axis model, in-sample
+and per held-out fold (:meth:`accelcore.diagnosis.engine.Engine.fit`). :func:`_solve`
+solves one accumulated problem, holding the columns the data cannot identify at
+zero, by pushing the rows again without them (the tests' reference for the engine).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from accelcore.core import LeastSquares
+from accelcore.errors import SingularSystemError
+
+__all__ = ["Fit"]
+
+FloatArray = NDArray[np.float64]
+
+#: Column names of the accumulators: the column's index, so that a rank error maps back.
+_NAMES = [str(i) for i in range(64)]
+
+
+@dataclass(frozen=True)
+class Fit:
+    """Coefficients of the free terms of one axis model, in-sample and per held-out fold.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n, p)
+        Design of the free terms, one row per sample.
+    beta_in : ndarray, shape (p,)
+        Fit on every sample.
+    beta_fold : ndarray, shape (n_folds, p)
+        Fit on every fold but the k-th (zeros for an empty fold).
+    rss_in : float
+        Weighted residual sum of squares of ``beta_in``, mg².
+    """
+
+    x: FloatArray
+    beta_in: FloatArray
+    beta_fold: FloatArray
+    rss_in: float
+
+
+def _solve(
+    acc: LeastSquares,
+    x: FloatArray,
+    y: FloatArray,
+    w: FloatArray,
+    rows: NDArray[np.bool_] | None,
+) -> tuple[FloatArray, float]:
+    """Coefficients and weighted RSS of an accumulated problem; unidentified columns get zero.
+
+    The core names the columns it cannot identify (``SingularSystemError.columns``);
+    they are dropped and the problem's rows (``x[rows]``, every row when ``rows`` is
+    None) pushed again over the remaining columns, until the design has full rank.
+    On the rows fitted, the fitted values are those of the minimum-norm solution; the
+    coefficients differ from it only in how they split among columns that those rows
+    cannot tell apart. With no row, fewer rows than columns, or no identifiable
+    column, every coefficient is zero.
+    """
+    p = x.shape[1]
+    keep = np.arange(p)
+    while acc.n_rows >= keep.size > 0:
+        try:
+            solution = acc.finish()
+        except SingularSystemError as exc:
+            drop = {int(c) for c in exc.columns}
+            keep = keep[[i for i in range(keep.size) if i not in drop]]
+            if keep.size:
+                acc = LeastSquares(int(keep.size), column_names=_NAMES[: keep.size])
+                if rows is None:
+                    acc.push(x[:, keep], y, w)
+                else:
+                    acc.push(x[np.ix_(rows, keep)], y[rows], w[rows])
+            continue
+        beta = np.zeros(p)
+        beta[keep] = solution.coefficients
+        return beta, float(solution.residual_sum_squares)
+    rw, ry = (w, y) if rows is None else (w[rows], y[rows])
+    return np.zeros(p), float((rw * ry * ry).sum())
