@@ -16,7 +16,9 @@ writes it to stdout instead of the human-readable output.
 
 Modules: :mod:`~accelcore.apps.cli.entry` (:func:`main`: dispatch, exit status,
 errors and warnings on stderr), :mod:`~accelcore.apps.cli.parser` (the options),
-:mod:`~accelcore.apps.cli.commands` (one function per subcommand) and
+:mod:`~accelcore.apps.cli.commands` (one function per subcommand; ``compensate`` in
+:mod:`~accelcore.apps.cli.compensate`), :mod:`~accelcore.apps.cli.inputs` (session
+folders or flight logs, output guards, missing extras) and
 :mod:`~accelcore.apps.cli.documents` (the ``--json`` envelope and its writer).
 """
 
