@@ -22,6 +22,7 @@ from accelcore.apps import demo
 from accelcore.apps.bulk import bulk
 from accelcore.apps.cli.compensate import cmd_compensate
 from accelcore.apps.cli.documents import json_document, require_folder, write_json
+from accelcore.apps.cli.init import cmd_init
 from accelcore.apps.cli.inputs import (
     CliDataError,
     UsageError,
@@ -51,6 +52,7 @@ __all__ = [
     "cmd_demo",
     "cmd_diagnose",
     "cmd_export",
+    "cmd_init",
     "cmd_report",
     "cmd_simulate",
 ]

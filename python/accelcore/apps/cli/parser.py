@@ -13,6 +13,7 @@ from typing import Any
 from accelcore._accelcore import __version__
 from accelcore.apps.cli import commands
 from accelcore.constants import TIME_UNITS as _TIME_UNITS
+from accelcore.constants import UNITS
 
 __all__ = ["DEFAULT_CHUNK_ROWS", "build_parser"]
 
@@ -63,6 +64,16 @@ _EPILOGS = {
   table and residual plots. On a bulk output (a folder holding fleet.csv):
   temperature coefficients across parts against the datasheet limits, the
   fleet table and the failures; -o defaults to that folder.""",
+    "init": """examples:
+  accelcore init /data/chamber/part17
+  accelcore init /data/chamber/part17 --units V --rate-hz 20 --sensor ADXL335 --force
+
+  Writes FOLDER/session.toml for the logs (.csv, .tsv, .txt, .dat) of FOLDER,
+  one run each: delimiter, columns and time unit from the header, each run's
+  orientation from its file name (x_pos, OX+, xp, zminus, +z ...) or else from
+  its mean output (gravity), units from the size of the output and the rate
+  from the median time step. Prints every guess; asks nothing. An existing
+  session.toml is kept (exit status 2) unless --force.""",
     "simulate": """example:
   accelcore simulate /tmp/adxl335-session --sensor ADXL335 --seed 7 --duration-h 2""",
     "bench": """example:
@@ -94,6 +105,13 @@ def _add_no_cache(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="read every log again; neither use nor fill the run cache (docs/cache.md)",
     )
+
+
+def _positive(text: str) -> float:
+    value = _window(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
 
 
 def _non_negative(text: str) -> int:
@@ -253,6 +271,16 @@ def build_parser() -> argparse.ArgumentParser:
     _add_instance(p)
     _add_no_cache(p)
     p.set_defaults(func=commands.cmd_report, data_path="path")
+
+    p = add("init", "write a session.toml for a folder of logs, guessing its layout")
+    p.add_argument("folder", metavar="FOLDER", help="folder of logs, one run per file")
+    p.add_argument("--force", action="store_true", help="write over an existing session.toml")
+    p.add_argument("--units", choices=UNITS, help="output units (default: guessed)")
+    p.add_argument("--rate-hz", type=_positive, metavar="HZ", help="default: median time step")
+    p.add_argument("--delimiter", help="',', '\\t' or ';' (default: guessed from the header)")
+    p.add_argument("--sensor", help="part name written to session.toml (datasheet comparison)")
+    p.add_argument("--serial", help="serial written to session.toml")
+    p.set_defaults(func=commands.cmd_init, data_path="folder")
 
     p = add("simulate", "write a simulated session with known truth")
     p.add_argument("out", metavar="OUT", help="session folder to create (must be empty)")
