@@ -286,3 +286,22 @@ def test_report_without_matplotlib(
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     code, _, err = _run(["report", str(logs["ulog"]), "-o", str(tmp_path / "r")], capsys)
     _one_usage_line(code, err, "plot")
+
+
+def test_packaging_metadata_agrees() -> None:
+    """One license and one repository URL everywhere; [all] pulls every other extra."""
+    import tomllib
+
+    root = Path(__file__).resolve().parents[1]
+    project = tomllib.loads((root / "pyproject.toml").read_text())["project"]
+    cargo = tomllib.loads((root / "Cargo.toml").read_text())["workspace"]["package"]
+    assert project["license"] == cargo["license"] == "MIT"
+    assert "MIT License" in (root / "LICENSE").read_text()
+    assert project["license-files"] == ["LICENSE"]
+    assert project["urls"]["Repository"] == cargo["repository"]
+    assert all(u.startswith(cargo["repository"]) for u in project["urls"].values())
+    extras = project["optional-dependencies"]
+    (everything,) = extras["all"]
+    listed = everything.removeprefix("accelcore[").removesuffix("]").split(",")
+    assert sorted(listed) == sorted(k for k in extras if k != "all")
+    assert any(c.startswith("License") for c in project["classifiers"]) is False  # PEP 639
