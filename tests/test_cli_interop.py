@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -305,3 +306,29 @@ def test_packaging_metadata_agrees() -> None:
     listed = everything.removeprefix("accelcore[").removesuffix("]").split(",")
     assert sorted(listed) == sorted(k for k in extras if k != "all")
     assert any(c.startswith("License") for c in project["classifiers"]) is False  # PEP 639
+
+
+def test_a_base_install_imports_and_calibrates_without_any_extra(tmp_path: Path) -> None:
+    """In a fresh interpreter where no optional package can be imported."""
+    import subprocess
+
+    sim = simulate.session(tmp_path / "s", "ADXL335", duration_h=0.05, soak_min=0.5)
+    blocked = ["matplotlib", "pyarrow", "nptdms", "pyulog", "pymavlink", "dask", "distributed"]
+    code = (
+        "import sys\n"
+        f"for name in {blocked!r}:\n"
+        "    sys.modules[name] = None\n"
+        "from accelcore.apps.cli import main\n"
+        f"assert main(['calibrate', {str(sim.path)!r}, '--no-cache']) == 0\n"
+        f"sys.exit(main(['report', {str(sim.path)!r}, '-o', {str(tmp_path / 'r')!r}]))\n"
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, check=False
+    )
+    assert done.returncode == 2, done.stderr
+    assert "offset" in done.stdout
+    assert done.stderr.strip().splitlines()[-1] == (
+        "accelcore report: error: accelcore report needs matplotlib: pip install accelcore[plot]"
+    )
+    assert "Traceback" not in done.stderr
