@@ -1,9 +1,11 @@
 """Bulk processing of archived chamber runs: every session under a folder, in parallel.
 
-:func:`bulk` finds every session folder (one holding ``session.toml``) at any
+:func:`bulk` finds every session folder (one holding ``session.toml``) and every
+flight log (PX4 ``.ulg``, ArduPilot ``.bin``; one IMU instance each) at any
 depth under an archive, calibrates and diagnoses each, and writes per session
 ``OUT/<relative path>/calibration.json`` and ``diagnosis.json``, plus the fleet
-table ``OUT/fleet.parquet`` and ``OUT/fleet.csv`` (one row per session and axis)
+table ``OUT/fleet.parquet`` (when pyarrow is installed) and ``OUT/fleet.csv`` (one row
+per session and axis)
 and ``OUT/failures.csv`` (session, stage, reason). The fleet rows are built in
 :mod:`accelcore.apps.fleet_rows`; their ``warnings`` column holds the session's
 data-quality findings (:func:`accelcore.input.quality.check_session`) in short.
@@ -54,7 +56,7 @@ from accelcore.fitting.calibrate import calibrate
 from accelcore.input.cache import CacheSetting
 from accelcore.input.format import SessionFormat
 from accelcore.input.quality import check_session
-from accelcore.input.session import load_session
+from accelcore.input.readers.opener import FLIGHT_LOGS, is_flight_log, open_input
 from accelcore.outputs.report.fleet import FAILURE_COLUMNS, FLEET_COLUMNS
 
 __all__ = [
@@ -74,18 +76,29 @@ BULK_SCHEMA = "accelcore-bulk/2"  # 2: the warnings column
 
 
 def find_sessions(archive: str | Path) -> list[str]:
-    """Return every session folder under ``archive`` (any depth), relative and sorted."""
+    """Return every session under ``archive`` (any depth), relative and sorted.
+
+    A session is a folder holding ``session.toml``, or a flight log (a PX4
+    ``.ulg`` or ArduPilot ``.bin`` file) that lies outside every session folder.
+    """
     root = Path(archive)
     if not root.is_dir():
         raise FileNotFoundError(f"{root}: no such archive folder")
-    found = sorted(
-        p.parent.relative_to(root).as_posix() for p in root.rglob("session.toml") if p.is_file()
-    )
-    return found
+    folders = {p.parent for p in root.rglob("session.toml") if p.is_file()}
+    logs = {
+        p
+        for p in root.rglob("*")
+        if p.suffix.lower() in FLIGHT_LOGS
+        and is_flight_log(p)
+        and not any(d in folders for d in p.parents)
+    }
+    return sorted(p.relative_to(root).as_posix() for p in folders | logs)
 
 
 def _input_mtime(session_dir: Path) -> float:
-    """Newest modification time of session.toml and every file it names."""
+    """Newest modification time of session.toml and every file it names (or of the flight log)."""
+    if is_flight_log(session_dir):
+        return session_dir.stat().st_mtime
     newest = (session_dir / "session.toml").stat().st_mtime
     try:
         files = SessionFormat.read(session_dir, check_files=False).run_files
@@ -115,6 +128,7 @@ def process_session(
     diagnose: bool = True,
     force: bool = False,
     cache: CacheSetting = True,
+    instance: int = 0,
 ) -> SessionOutcome:
     """Calibrate (and diagnose) one session and write its outputs; never raises on bad data.
 
@@ -123,7 +137,7 @@ def process_session(
     archive : str or Path
         The archive root.
     rel : str
-        The session folder relative to ``archive``.
+        The session folder (or flight log) relative to ``archive``.
     out : str or Path
         The output root.
     diagnose : bool, default True
@@ -132,6 +146,8 @@ def process_session(
         Redo the session even if its outputs are up to date.
     cache : bool, str or os.PathLike, default True
         The run cache, as in :func:`accelcore.load_session`.
+    instance : int, default 0
+        The IMU instance read from a flight log (a session folder ignores it).
 
     Returns
     -------
@@ -140,16 +156,22 @@ def process_session(
     src = Path(archive) / rel
     dst = Path(out) / rel
     marker = dst / "fleet_rows.json"
+    # The instance read is part of a flight log's input; a session folder has none.
+    read_instance = instance if is_flight_log(src) else None
     try:
         if not force and marker.is_file() and marker.stat().st_mtime >= _input_mtime(src):
             doc = json.loads(marker.read_text())
-            if doc.get("schema") == BULK_SCHEMA and doc.get("accelcore_version") == __version__:
+            if (
+                doc.get("schema") == BULK_SCHEMA
+                and doc.get("accelcore_version") == __version__
+                and doc.get("instance") == read_instance
+            ):
                 return SessionOutcome(rel, rows=list(doc["rows"]), reused=True)
     except (OSError, json.JSONDecodeError, KeyError):
         pass  # unreadable marker: redo the session
     stage = "load"
     try:
-        session = load_session(src, cache=cache)
+        session = open_input(src, instance=instance, cache=cache)
         stage = "calibrate"
         cal = calibrate(session)
         dst.mkdir(parents=True, exist_ok=True)
@@ -164,10 +186,13 @@ def process_session(
             )
         stage = "report"
         rows = fleet_rows(rel, cal, diag, quality)
+        doc = {"schema": BULK_SCHEMA, "accelcore_version": __version__, "rows": rows}
+        if read_instance is not None:
+            doc["instance"] = read_instance
         atomic_write(
             marker,
             json.dumps(
-                {"schema": BULK_SCHEMA, "accelcore_version": __version__, "rows": rows},
+                doc,
                 sort_keys=True,
                 allow_nan=True,
             ),
@@ -201,6 +226,9 @@ class BulkResult:
     n_sessions, n_reused : int
         Sessions found, and sessions whose up-to-date outputs were reused.
     elapsed_s : float
+    not_written : tuple of str
+        Outputs left out for want of an optional dependency, each with the extra
+        to install (``"fleet.parquet needs pyarrow: pip install accelcore[parquet]"``).
     """
 
     fleet: pd.DataFrame
@@ -208,6 +236,7 @@ class BulkResult:
     n_sessions: int
     n_reused: int
     elapsed_s: float
+    not_written: tuple[str, ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -263,18 +292,27 @@ def _table_bytes(frame: pd.DataFrame, columns: Sequence[str]) -> bytes:
     return buf.getvalue().encode("utf-8")
 
 
-def _write_tables(out: Path, fleet: pd.DataFrame, failures: pd.DataFrame) -> None:
+#: What a bulk run without pyarrow leaves out, and how to get it.
+NO_PARQUET = "fleet.parquet needs pyarrow: pip install accelcore[parquet]"
+
+
+def _write_tables(out: Path, fleet: pd.DataFrame, failures: pd.DataFrame) -> tuple[str, ...]:
+    """Write the fleet tables; return what was left out for want of an optional dependency."""
     atomic_write(out / "fleet.csv", _table_bytes(fleet, FLEET_COLUMNS))
     atomic_write(out / "failures.csv", _table_bytes(failures, FAILURE_COLUMNS))
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
-    except ImportError as exc:  # pragma: no cover - optional: the [parquet] extra
-        raise ImportError("fleet.parquet needs pyarrow: pip install accelcore[parquet]") from exc
+    except ImportError:  # optional: the [parquet] extra; the CSV tables are complete
+        stale = out / "fleet.parquet"
+        if stale.is_file():  # from an earlier run: it would disagree with fleet.csv
+            stale.unlink()
+        return (NO_PARQUET,)
     table = pa.Table.from_pandas(fleet, preserve_index=False)
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)
     atomic_write(out / "fleet.parquet", sink.getvalue().to_pybytes())
+    return ()
 
 
 def worker_count(jobs: int | None, n_sessions: int) -> int:
@@ -325,15 +363,14 @@ def _run_local(
     sessions: Sequence[str],
     out: Path,
     jobs: int,
-    diagnose: bool,
-    force: bool,
-    cache: CacheSetting,
+    options: dict[str, Any],
     on_done: Callable[[SessionOutcome], None],
 ) -> list[SessionOutcome]:
+    """Process the sessions here or in worker processes; ``options`` go to process_session."""
     outcomes: list[SessionOutcome] = []
     if jobs <= 1:
         for rel in sessions:
-            o = process_session(archive, rel, out, diagnose=diagnose, force=force, cache=cache)
+            o = process_session(archive, rel, out, **options)
             on_done(o)
             outcomes.append(o)
         return outcomes
@@ -341,10 +378,7 @@ def _run_local(
         max_workers=jobs, initializer=watch_parent, initargs=(os.getpid(),)
     ) as pool:
         futures: list[Future[SessionOutcome]] = [
-            pool.submit(
-                process_session, archive, rel, out, diagnose=diagnose, force=force, cache=cache
-            )
-            for rel in sessions
+            pool.submit(process_session, archive, rel, out, **options) for rel in sessions
         ]
         for fut in as_completed(futures):
             o = fut.result()
@@ -358,9 +392,7 @@ def _run_dask(
     archive: Path,
     sessions: Sequence[str],
     out: Path,
-    diagnose: bool,
-    force: bool,
-    cache: CacheSetting,
+    options: dict[str, Any],
     on_done: Callable[[SessionOutcome], None],
 ) -> list[SessionOutcome]:
     import distributed
@@ -373,9 +405,7 @@ def _run_dask(
             str(archive),
             rel,
             str(out),
-            diagnose=diagnose,
-            force=force,
-            cache=cache,
+            **options,
             pure=False,
             key=f"accelcore-session-{i}",
         )
@@ -401,6 +431,7 @@ def bulk(
     progress: bool = True,
     stream: TextIO | None = None,
     cache: CacheSetting = True,
+    instance: int = 0,
 ) -> BulkResult:
     """Calibrate and diagnose every session under ``archive``; write per-session and fleet outputs.
 
@@ -429,6 +460,8 @@ def bulk(
     cache : bool, str or os.PathLike, default True
         The run cache used to load each session (:func:`accelcore.load_session`);
         a folder given here must be reachable from every worker.
+    instance : int, default 0
+        The IMU instance read from each flight log of the archive.
 
     Returns
     -------
@@ -445,16 +478,13 @@ def bulk(
 
         make_client: Any = distributed.Client  # untyped package
         client = own_client = make_client(scheduler)
+    options = {"diagnose": diagnose, "force": force, "cache": cache, "instance": instance}
     try:
         if client is not None:
-            outcomes = _run_dask(
-                client, archive_p, sessions, out_p, diagnose, force, cache, bar.update
-            )
+            outcomes = _run_dask(client, archive_p, sessions, out_p, options, bar.update)
         else:
             n_jobs = worker_count(jobs, len(sessions))
-            outcomes = _run_local(
-                archive_p, sessions, out_p, n_jobs, diagnose, force, cache, bar.update
-            )
+            outcomes = _run_local(archive_p, sessions, out_p, n_jobs, options, bar.update)
     finally:
         if own_client is not None:
             own_client.close()
@@ -469,9 +499,14 @@ def bulk(
         ],
         columns=list(FAILURE_COLUMNS),
     )
-    _write_tables(out_p, fleet, failures)
+    not_written = _write_tables(out_p, fleet, failures)
     return BulkResult(
-        fleet, failures, len(sessions), sum(o.reused for o in outcomes), time.monotonic() - start
+        fleet,
+        failures,
+        len(sessions),
+        sum(o.reused for o in outcomes),
+        time.monotonic() - start,
+        not_written,
     )
 
 

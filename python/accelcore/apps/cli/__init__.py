@@ -1,8 +1,8 @@
 """The ``accelcore`` command line (also ``python -m accelcore``).
 
-Subcommands: ``calibrate``, ``compensate``, ``diagnose``, ``report``, ``bulk``,
-``simulate``, ``bench`` and ``demo``; ``accelcore COMMAND --help`` shows each one's options
-and an example. Exit status: 0 on success, 1 on a data error (a one-line
+Subcommands: ``calibrate``, ``compensate``, ``diagnose``, ``export``, ``report``,
+``bulk``, ``init``, ``simulate``, ``bench`` and ``demo``; ``accelcore COMMAND --help``
+shows each one's options and an example. Exit status: 0 on success, 1 on a data error (a one-line
 reason naming the file goes to stderr), 2 on a usage error.
 
 ``--json OUT`` writes a machine-readable result in the versioned schema
@@ -16,7 +16,10 @@ writes it to stdout instead of the human-readable output.
 
 Modules: :mod:`~accelcore.apps.cli.entry` (:func:`main`: dispatch, exit status,
 errors and warnings on stderr), :mod:`~accelcore.apps.cli.parser` (the options),
-:mod:`~accelcore.apps.cli.commands` (one function per subcommand) and
+:mod:`~accelcore.apps.cli.commands` (one function per subcommand; ``compensate``
+in :mod:`~accelcore.apps.cli.compensate`, ``init`` in :mod:`~accelcore.apps.cli.init`),
+:mod:`~accelcore.apps.cli.inputs` (session folders or flight logs, output guards,
+missing extras) and
 :mod:`~accelcore.apps.cli.documents` (the ``--json`` envelope and its writer).
 """
 

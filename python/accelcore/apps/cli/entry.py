@@ -87,7 +87,8 @@ def main(argv: Sequence[str] | None = None, *, stdout: TextIO | None = None) -> 
                 devnull = os.open(os.devnull, os.O_WRONLY)
                 os.dup2(devnull, sys.stdout.fileno())
             status = 1
-        except (UsageError, OutputConflictError) as exc:
+        except (UsageError, OutputConflictError, ImportError) as exc:
+            # An ImportError is an optional dependency missing (its message names the extra).
             # An output that would overwrite an input is a usage error, found before any read.
             print(f"accelcore {ns.command}: error: {' '.join(str(exc).split())}", file=sys.stderr)
             status = 2

@@ -13,6 +13,7 @@ from typing import Any
 from accelcore._accelcore import __version__
 from accelcore.apps.cli import commands
 from accelcore.constants import TIME_UNITS as _TIME_UNITS
+from accelcore.constants import UNITS
 
 __all__ = ["DEFAULT_CHUNK_ROWS", "build_parser"]
 
@@ -22,10 +23,12 @@ DEFAULT_CHUNK_ROWS = 100_000
 _EPILOGS = {
     "calibrate": """example:
   accelcore calibrate examples/adxl335-demo/generated --method joint --t-ref 25 \\
-      --window 0 60 --json cal-result.json --save adxl335.cal.json""",
+      --window 0 60 --json cal-result.json --save adxl335.cal.json
+  accelcore calibrate thermal_sweep.ulg --instance 1 --save px4-imu1.cal.json""",
     "compensate": """example:
   accelcore compensate adxl335.cal.json flight_log.csv -o flight_log_g.csv \\
       --column temperature=die_temp --column time=t_ms --time-unit ms
+  accelcore compensate px4-imu1.cal.json flight.ulg --instance 1 -o flight_g.csv
 
   The output holds the time and temperature columns, then x_g, y_g, z_g.""",
     "export": """examples:
@@ -40,23 +43,37 @@ _EPILOGS = {
   scale and misalignment at one temperature (--temperature, default T_ref).
   Conventions and signs: docs/interop.md.""",
     "diagnose": """example:
-  accelcore diagnose examples/adxl335-demo/generated --json diagnosis.json""",
+  accelcore diagnose examples/adxl335-demo/generated --json diagnosis.json
+  accelcore diagnose chamber.bin --instance 1     (an ArduPilot log's second IMU)""",
     "bulk": """example:
   accelcore bulk /data/chamber-archive -o /data/calibrations --jobs 2
   accelcore bulk /data/chamber-archive -o /data/calibrations --scheduler tcp://10.0.0.5:8786
 
-  Writes OUT/<session>/calibration.json and diagnosis.json, OUT/fleet.csv,
-  OUT/fleet.parquet and OUT/failures.csv. A rerun redoes only sessions whose
-  inputs changed (or that failed). Exit status 1 when any session failed.""",
+  A session is a folder holding session.toml, or a flight log (.ulg, .bin;
+  IMU --instance). Writes OUT/<session>/calibration.json and diagnosis.json,
+  OUT/fleet.csv, OUT/fleet.parquet (with pyarrow) and OUT/failures.csv. A
+  rerun redoes only sessions whose inputs changed (or that failed). Exit
+  status 1 when any session failed.""",
     "report": """example:
   accelcore report examples/adxl335-demo/generated -o /tmp/adxl335-report
   accelcore report /data/calibrations            (a bulk output: fleet report)
+  accelcore report flight.ulg -o /tmp/flight-report
 
   Writes DIR/index.html, one self-contained page (figures embedded). On a
   session: datasheet comparison, the paper's Figures 4, 6 and 7, diagnosis
   table and residual plots. On a bulk output (a folder holding fleet.csv):
   temperature coefficients across parts against the datasheet limits, the
   fleet table and the failures; -o defaults to that folder.""",
+    "init": """examples:
+  accelcore init /data/chamber/part17
+  accelcore init /data/chamber/part17 --units V --rate-hz 20 --sensor ADXL335 --force
+
+  Writes FOLDER/session.toml for the logs (.csv, .tsv, .txt, .dat) of FOLDER,
+  one run each: delimiter, columns and time unit from the header, each run's
+  orientation from its file name (x_pos, OX+, xp, zminus, +z ...) or else from
+  its mean output (gravity), units from the size of the output and the rate
+  from the median time step. Prints every guess; asks nothing. An existing
+  session.toml is kept (exit status 2) unless --force.""",
     "simulate": """example:
   accelcore simulate /tmp/adxl335-session --sensor ADXL335 --seed 7 --duration-h 2""",
     "bench": """example:
@@ -87,6 +104,33 @@ def _add_no_cache(p: argparse.ArgumentParser) -> None:
         "--no-cache",
         action="store_true",
         help="read every log again; neither use nor fill the run cache (docs/cache.md)",
+    )
+
+
+def _positive(text: str) -> float:
+    value = _window(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def _non_negative(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def _add_instance(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--instance",
+        type=_non_negative,
+        default=0,
+        metavar="N",
+        help="IMU instance read from a flight log (.ulg, .bin); default 0, the first IMU",
     )
 
 
@@ -135,12 +179,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
     p.add_argument("--save", metavar="CAL.json", help="save the calibration file")
+    _add_instance(p)
     _add_no_cache(p)
     p.set_defaults(func=commands.cmd_calibrate, data_path="session")
 
     p = add("compensate", "turn a raw log into acceleration in g with a saved calibration")
     p.add_argument("calibration", metavar="CAL.json", help="file written by calibrate --save")
-    p.add_argument("input", metavar="INPUT.csv", help="raw log (any size: read in chunks)")
+    p.add_argument(
+        "input",
+        metavar="INPUT",
+        help="raw log: delimited text or .parquet (any size: read in chunks), or a flight log "
+        "(.ulg, .bin)",
+    )
     p.add_argument("-o", "--output", required=True, metavar="OUT.csv", help="output CSV")
     p.add_argument(
         "--session",
@@ -156,6 +206,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--delimiter", help="',' (default), '\\t' or ';'")
     p.add_argument("--time-unit", choices=tuple(_TIME_UNITS), help="default: s")
+    _add_instance(p)
     p.add_argument("--chunk-rows", type=int, default=DEFAULT_CHUNK_ROWS, help=argparse.SUPPRESS)
     p.set_defaults(func=commands.cmd_compensate, data_path="input")
 
@@ -185,23 +236,31 @@ def build_parser() -> argparse.ArgumentParser:
         help="session folder (holding session.toml), or a PX4 .ulg / ArduPilot .bin log",
     )
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
+    _add_instance(p)
     _add_no_cache(p)
     p.set_defaults(func=commands.cmd_diagnose, data_path="session")
 
     p = add("bulk", "calibrate and diagnose every session under an archive folder")
-    p.add_argument("archive", metavar="ARCHIVE", help="folder searched for sessions (any depth)")
+    p.add_argument(
+        "archive",
+        metavar="ARCHIVE",
+        help="folder searched for session folders and flight logs (.ulg, .bin), any depth",
+    )
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="output folder")
     p.add_argument("--jobs", type=int, metavar="N", help="worker processes (default: all cores)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster (tcp://HOST:PORT)")
     p.add_argument("--no-diagnose", action="store_true", help="calibrate only")
     p.add_argument("--force", action="store_true", help="redo sessions that are up to date")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    _add_instance(p)
     _add_no_cache(p)
     p.set_defaults(func=commands.cmd_bulk, data_path="archive")
 
     p = add("report", "write an HTML report of a session or of a bulk output")
     p.add_argument(
-        "path", metavar="SESSION|OUT", help="session folder, or output folder of accelcore bulk"
+        "path",
+        metavar="SESSION|OUT",
+        help="session folder, flight log (.ulg, .bin), or output folder of accelcore bulk",
     )
     p.add_argument(
         "-o",
@@ -209,8 +268,19 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="folder for index.html (required for a session; default for a bulk output: OUT)",
     )
+    _add_instance(p)
     _add_no_cache(p)
     p.set_defaults(func=commands.cmd_report, data_path="path")
+
+    p = add("init", "write a session.toml for a folder of logs, guessing its layout")
+    p.add_argument("folder", metavar="FOLDER", help="folder of logs, one run per file")
+    p.add_argument("--force", action="store_true", help="write over an existing session.toml")
+    p.add_argument("--units", choices=UNITS, help="output units (default: guessed)")
+    p.add_argument("--rate-hz", type=_positive, metavar="HZ", help="default: median time step")
+    p.add_argument("--delimiter", help="',', '\\t' or ';' (default: guessed from the header)")
+    p.add_argument("--sensor", help="part name written to session.toml (datasheet comparison)")
+    p.add_argument("--serial", help="serial written to session.toml")
+    p.set_defaults(func=commands.cmd_init, data_path="folder")
 
     p = add("simulate", "write a simulated session with known truth")
     p.add_argument("out", metavar="OUT", help="session folder to create (must be empty)")

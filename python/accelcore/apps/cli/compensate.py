@@ -1,0 +1,282 @@
+"""``accelcore compensate``: a raw log of any size into acceleration in g, chunk by chunk.
+
+The raw log is a delimited text file (read in chunks), a Parquet file (``pip
+install accelcore[parquet]``, read in record batches) or a flight log (PX4
+``.ulg``, ArduPilot ``.bin``: one IMU instance, every sample). The output CSV holds
+the time and temperature columns, then ``x_g``, ``y_g``, ``z_g``; it is written as
+it goes and replaced atomically at the end.
+
+Part of the applications room.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import csv
+import sys
+import warnings
+from collections.abc import Generator, Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+import pandas as pd
+from numpy.typing import NDArray
+
+from accelcore.apps.cli.documents import require_folder
+from accelcore.apps.cli.inputs import CliDataError, UsageError, guard, need, open_session
+from accelcore.constants import DEFAULT_COLUMNS as _DEFAULT_COLUMNS
+from accelcore.constants import DELIMITERS as _DELIMITERS
+from accelcore.constants import TIME_UNITS as _TIME_UNITS
+from accelcore.errors import AccelcoreError, ParseError, TemperatureRangeWarning
+from accelcore.files import atomic_open
+from accelcore.input.format import SessionFormat
+from accelcore.input.readers.opener import is_flight_log
+from accelcore.result.calibration import Calibration
+
+__all__ = ["COLUMN_KEYS", "cmd_compensate"]
+
+#: The roles of a raw log's columns, as ``--column KEY=NAME`` names them.
+COLUMN_KEYS = ("time", "temperature", "x", "y", "z")
+
+#: Column names of a flight log's samples, as the output names them.
+_FLIGHT_COLUMNS = {
+    "time": "time_s",
+    "temperature": "temperature_c",
+    "x": "x",
+    "y": "y",
+    "z": "z",
+}
+
+
+def _session_format(folder: str) -> dict[str, Any]:
+    fmt = SessionFormat.read(folder, check_files=False)
+    return {"delimiter": fmt.delimiter, "time_unit": fmt.time_unit, "columns": dict(fmt.columns)}
+
+
+def _parse_column_options(items: Sequence[str]) -> dict[str, str]:
+    columns: dict[str, str] = {}
+    for item in items:
+        key, sep, name = item.partition("=")
+        if not sep or key not in COLUMN_KEYS or not name:
+            raise UsageError(
+                f"--column expects KEY=NAME with KEY one of {', '.join(COLUMN_KEYS)}, got {item!r}"
+            )
+        columns[key] = name
+    return columns
+
+
+def _layout(args: argparse.Namespace) -> tuple[dict[str, str], str, str]:
+    """Column names by role, delimiter and time unit, from --session and the options."""
+    fmt: dict[str, Any] = {"delimiter": ",", "time_unit": "s", "columns": {}}
+    if args.session:
+        fmt = _session_format(args.session)
+    if args.delimiter is not None:
+        fmt["delimiter"] = args.delimiter
+    if args.time_unit is not None:
+        fmt["time_unit"] = args.time_unit
+    fmt["columns"].update(_parse_column_options(args.column))
+    if fmt["delimiter"] not in _DELIMITERS:
+        raise UsageError(f"delimiter must be ',', '\\t' or ';', got {fmt['delimiter']!r}")
+    if fmt["time_unit"] not in _TIME_UNITS:
+        raise UsageError(f"time unit must be one of {', '.join(_TIME_UNITS)}")
+    names = {**_DEFAULT_COLUMNS, **fmt["columns"]}
+    if len(set(names.values())) < len(names):
+        raise UsageError(f"two columns share one name: {names}; each role needs its own column")
+    return names, fmt["delimiter"], fmt["time_unit"]
+
+
+def _compensate_chunks(
+    cal: Calibration,
+    chunks: Iterator[pd.DataFrame],
+    names: Mapping[str, str],
+    time_scale: float,
+    extra_names: Sequence[str],
+) -> Iterator[tuple[pd.DataFrame, NDArray[np.float64], int]]:
+    """Yield per chunk: the input frame, acceleration in g, and samples outside the range."""
+    comp = cal.compensator()
+    for frame in chunks:
+        before = comp.n_out_of_range
+        with warnings.catch_warnings():
+            # The command reports the total once at the end instead.
+            warnings.simplefilter("ignore", TemperatureRangeWarning)
+            g = comp.push(
+                frame[[names["x"], names["y"], names["z"]]].to_numpy(dtype=np.float64),
+                frame[names["temperature"]].to_numpy(dtype=np.float64),
+                frame[names["time"]].to_numpy(dtype=np.float64) * time_scale,
+                {k: frame[k].to_numpy(dtype=np.float64) for k in extra_names},
+            )
+        yield frame, g, comp.n_out_of_range - before
+
+
+def _check_columns(source: Path, needed: Sequence[str], found: Sequence[str]) -> None:
+    missing = [c for c in needed if c not in found]
+    if missing:
+        raise CliDataError(
+            f"{source}: missing column(s) {', '.join(missing)}; found {', '.join(found)} "
+            "(name them with --column KEY=NAME or --session)"
+        )
+
+
+def _text_chunks(
+    source: Path, delimiter: str, needed: Sequence[str], chunk_rows: int
+) -> Generator[pd.DataFrame]:
+    try:
+        header = pd.read_csv(source, sep=_DELIMITERS[delimiter], nrows=0)
+    except pd.errors.EmptyDataError as exc:
+        raise CliDataError(f"{source}: empty file, no header row") from exc
+    except UnicodeDecodeError as exc:
+        raise CliDataError(
+            f"{source}: not a text log ({exc.reason}); compensate reads delimited text, "
+            "Parquet (.parquet) and flight logs (.ulg, .bin)"
+        ) from None
+    _check_columns(source, needed, [str(c) for c in header.columns])
+    reader = pd.read_csv(
+        source,
+        sep=_DELIMITERS[delimiter],
+        usecols=list(needed),
+        dtype=dict.fromkeys(needed, np.float64),
+        chunksize=chunk_rows,
+    )
+
+    def frames() -> Generator[pd.DataFrame]:
+        with reader:
+            yield from reader
+
+    return frames()
+
+
+def _parquet_chunks(
+    source: Path, needed: Sequence[str], chunk_rows: int
+) -> Generator[pd.DataFrame]:
+    pq = need("pyarrow.parquet", "parquet", f"compensating {source} (Parquet)")
+    try:
+        pfile = pq.ParquetFile(source)
+    except Exception as exc:  # pyarrow raises ArrowInvalid (a ValueError), OSError...
+        raise CliDataError(f"{source}: not a readable Parquet file: {exc}") from None
+    _check_columns(source, needed, list(pfile.schema_arrow.names))
+    batches = pfile.iter_batches(batch_size=chunk_rows, columns=list(needed))
+    return (b.to_pandas().astype(np.float64) for b in batches)
+
+
+def _flight_chunks(
+    source: Path, cal: Calibration, instance: int, chunk_rows: int
+) -> Generator[pd.DataFrame]:
+    """Every sample of one IMU of a flight log (read undecimated), in frames."""
+    session = open_session(source, cache=False, instance=instance, decimation_factor=1)
+    if cal.units != session.units:
+        raise CliDataError(
+            f"{source}: the log is in {session.units} but the calibration in {cal.units}; "
+            "compensate a flight log with a calibration of a flight log"
+        )
+    c = _FLIGHT_COLUMNS
+    return (
+        pd.DataFrame(
+            {
+                c["time"]: run.time_s[a : a + chunk_rows],
+                c["temperature"]: run.temperature_c[a : a + chunk_rows],
+                c["x"]: run.output[a : a + chunk_rows, 0],
+                c["y"]: run.output[a : a + chunk_rows, 1],
+                c["z"]: run.output[a : a + chunk_rows, 2],
+            }
+        )
+        for run in session.runs
+        for a in range(0, run.time_s.shape[0], chunk_rows)
+    )
+
+
+def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
+    """``accelcore compensate``: a raw log of any size into acceleration in g, in chunks."""
+    source = Path(args.input)
+    flight = is_flight_log(source)
+    inputs: list[str | Path] = [args.calibration, source]
+    if args.session:
+        inputs += SessionFormat.input_files(args.session)
+    guard(inputs, [args.output])
+    if args.chunk_rows < 1:
+        raise UsageError("--chunk-rows must be >= 1")
+    if args.instance != 0 and not flight:
+        raise UsageError(f"--instance applies to flight logs (.ulg, .bin); {source} is not one")
+    if flight and (args.session or args.column or args.delimiter or args.time_unit):
+        raise UsageError(
+            f"{source} is a flight log: its columns are known; drop --session, --column, "
+            "--delimiter and --time-unit"
+        )
+    names, delimiter, time_unit = (_FLIGHT_COLUMNS, ",", "s") if flight else _layout(args)
+    cal = Calibration.load(args.calibration)
+    extra_names = sorted(
+        {t.basis.column for m in cal.axes.values() for t in m.terms if t.basis.column is not None}
+    )
+    if flight and extra_names:
+        raise CliDataError(
+            f"{source}: the calibration needs column(s) {', '.join(extra_names)}, "
+            "which a flight log does not hold"
+        )
+    needed = [names[k] for k in COLUMN_KEYS] + extra_names
+    chunks: Generator[pd.DataFrame]
+    if flight:
+        chunks = _flight_chunks(source, cal, args.instance, args.chunk_rows)
+    elif source.suffix.lower() == ".parquet":
+        chunks = _parquet_chunks(source, needed, args.chunk_rows)
+    else:
+        chunks = _text_chunks(source, delimiter, needed, args.chunk_rows)
+    target = require_folder(args.output)
+    n_rows = n_out_of_range = n_nan = 0
+    out_names = [names["time"], names["temperature"], "x_g", "y_g", "z_g"]
+    # Written chunk by chunk (the log may not fit in memory), replaced atomically at the end.
+    with contextlib.closing(chunks), atomic_open(target) as fh:
+        fh.write((",".join(out_names) + "\n").encode("utf-8"))
+        try:
+            for frame, g, n_out in _compensate_chunks(
+                cal, chunks, names, _TIME_UNITS[time_unit], extra_names
+            ):
+                block = np.column_stack(
+                    [frame[names["time"]].to_numpy(), frame[names["temperature"]].to_numpy(), g]
+                )
+                np.savetxt(fh, block, delimiter=",", fmt=["%.10g", "%.6g"] + ["%.7f"] * 3)
+                n_rows += len(frame)
+                n_out_of_range += n_out
+                n_nan += int(np.count_nonzero(~np.isfinite(g).all(axis=1)))
+        except ValueError as exc:
+            if isinstance(exc, AccelcoreError) or flight:
+                raise
+            raise _bad_cell(source, _DELIMITERS[delimiter], needed) or CliDataError(
+                f"{source}: {exc}"
+            ) from exc
+    print(f"compensated {n_rows} rows of {source} into {target} (columns x_g, y_g, z_g)", file=out)
+    if n_nan:
+        print(f"warning: {n_nan} rows had non-finite input and are NaN", file=sys.stderr)
+    if n_out_of_range:
+        lo, hi = cal.temperature_range_c
+        print(
+            f"warning: {n_out_of_range} rows lie outside the calibrated range {lo:.2f}…{hi:.2f} °C;"
+            " the model is extrapolated there, not clamped",
+            file=sys.stderr,
+        )
+    return 0
+
+
+def _bad_cell(source: Path, delimiter: str, needed: Sequence[str]) -> ParseError | None:
+    """Find the first cell of the needed columns that is not a number (line and column, 1-based).
+
+    Only called after the fast reader failed, so a clean log is read once.
+    """
+    with source.open(newline="", encoding="utf-8", errors="replace") as fh:
+        rows = csv.reader(fh, delimiter=delimiter)
+        header = next(rows, [])
+        wanted = [(i, name) for i, name in enumerate(header) if name in needed]
+        for line, row in enumerate(rows, start=2):
+            for i, name in wanted:
+                cell = row[i].strip() if i < len(row) else ""
+                if cell == "":
+                    continue
+                try:
+                    float(cell)
+                except ValueError:
+                    err = ParseError(
+                        f"{source}:{line}:{i + 1}: column {name!r}: {cell!r} is not a number"
+                    )
+                    err.path, err.line, err.column = str(source), line, i + 1
+                    return err
+    return None
