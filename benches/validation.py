@@ -364,7 +364,10 @@ def run_case(case: ValidationCase, seed: int, duration_h: float) -> Outcome:
     return Outcome(
         case=case,
         seed=seed,
-        added=diagnosis.effects,
+        added=(
+            *diagnosis.effects,
+            *dict.fromkeys(f"event: {e['event']}" for e in diagnosis.session_events),
+        ),
         base_mg=validation_rms_mg(base, check_on),
         diagnosed_mg=validation_rms_mg(diagnosis.calibration, check_on),
         ideal_mg=ideal,

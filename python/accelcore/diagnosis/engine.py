@@ -540,6 +540,7 @@ MIN_BLOCKS_PER_PART = 3
 #: Most columns of one least-squares problem in the core.
 _MAX_COLUMNS = 64
 
+
 def _key(term: Term) -> _Key:
     """Return the design column of a term."""
     return (term.basis, (term.source or "x") if term.kind == "gain" else None)
