@@ -41,6 +41,11 @@ __all__ = [
     "with_warm_up",
 ]
 
+#: Points of the log grid of a time-constant search, then golden-section steps
+#: around the best (the bracket shrinks to 0.618^8 = 2 % of two grid steps).
+GRID_POINTS = 10
+GOLDEN_STEPS = 8
+
 #: Family name of the warm-up (a session event).
 WARM_UP = "event: warm-up"
 
@@ -78,7 +83,7 @@ def variants(
     ``skip`` (:func:`accelcore.diagnosis.generic.generic_variants`).
     """
     if family == "smooth":
-        return generic_variants(axis, spec, eng, skip)
+        return [v[:3] for v in generic_variants(axis, spec, eng, skip)]
     a_i = AXES.index(axis)
     own_values = np.unique(eng.gravity[:, a_i]).size
     out: list[tuple[str, str, Spec]] = []
@@ -125,7 +130,8 @@ def search_1d(
 ) -> tuple[float, CV]:
     """Search a positive time constant of a model (``make(tau)``) on held-out SSE.
 
-    A 12-point log grid over ``range_s``, then golden section around the best; the
+    A log grid of :data:`GRID_POINTS` over ``range_s``, then :data:`GOLDEN_STEPS` of golden
+    section around the best; the
     trials are scored on a stride of the rows (:meth:`Engine.cv_coarse`) and the
     value found is cross-validated on every row.
     """
@@ -139,14 +145,14 @@ def search_1d(
         return cache[tau]
 
     lo, hi = math.log(tau_range_s[0]), math.log(tau_range_s[1])
-    grid = np.linspace(lo, hi, 12)
+    grid = np.linspace(lo, hi, GRID_POINTS)
     vals = [score(math.exp(g)) for g in grid]
     i = int(np.argmin(vals))
     a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
     golden = (math.sqrt(5) - 1) / 2
     c, d = b - golden * (b - a), a + golden * (b - a)
     fc, fd = score(math.exp(c)), score(math.exp(d))
-    for _ in range(10):
+    for _ in range(GOLDEN_STEPS):
         if fc < fd:
             b, d, fd = d, c, fc
             c = b - golden * (b - a)

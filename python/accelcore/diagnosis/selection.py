@@ -38,7 +38,7 @@ from . import search
 from .ends import improved_calibration, starting_point, usable_extras
 from .engine import CV, Engine
 from .events import find_run_events
-from .generic import TEMPERATURE_OBSERVABLES
+from .generic import TEMPERATURE_OBSERVABLES, generic_variants
 from .observables import STEADY_C_PER_MIN
 from .parameters import added_parameters, fit_models
 from .result import Diagnosis, Step
@@ -150,6 +150,8 @@ class _Selection:
                 self.eng, axis, lambda t: search.with_warm_up(spec, t), range_s
             )
             return [(search.WARM_UP, f"tau {tau:.3g} s", cv, search.with_warm_up(spec, tau))]
+        if family == "smooth":
+            return self._tried_generic(axis, spec)
         if family != "thermal_lag":
             return [
                 (fam, label, self.eng.cv(axis, s.terms(axis)), s)
@@ -169,6 +171,19 @@ class _Selection:
         for variant, what in (("die", "die lag"), ("rate", "rate term")):
             tau, cv = search.search_tau(self.eng, axis, spec, rules.tau_range_s, variant)
             tried.append((family, f"{what}, tau {tau:.3g} s", cv, with_tau(spec, variant, tau)))
+        return tried
+
+    def _tried_generic(self, axis: str, spec: Spec) -> list[_Tried]:
+        """Cross-validate the generic coarse variants, and the fine ones where those cut."""
+        tried: list[_Tried] = []
+        cur = self.cv_cur[axis].rms_out
+        skip = self.rules.skip_observables
+        for family, label, s, fine in generic_variants(axis, spec, self.eng, skip):
+            cv = self.eng.cv(axis, s.terms(axis))
+            tried.append((family, label, cv, s))
+            cut = 1.0 - cv.rms_out / cur if cur > 0 else 0.0
+            if fine is not None and cut >= 0.5 * self.rules.min_improvement:
+                tried.append((family, fine[0], self.eng.cv(axis, fine[1].terms(axis)), fine[1]))
         return tried
 
     def _candidates(self, step: int) -> dict[str, list[Candidate]]:
