@@ -11,8 +11,8 @@ into the calibration (:func:`accelcore.diagnosis.space.is_event`).
   jump of the residual, ``mean(r[k:k+W]) - mean(r[k-W:k])`` over windows of ``W``
   samples, in units of its white-noise standard error and pooled over the three
   axes (chi-square, 3 degrees of freedom); a smooth leftover trend gives no jump.
-  The largest is a step when its p-value, Bonferroni-corrected over the
-  independent windows of every run, is below ``alpha``.
+  The largest is a step when its p-value, Bonferroni-corrected over every
+  position of every run, is below ``alpha``.
 * **Run level** (a step at the run's start: a tilted gravity direction, seen on
   the axes that should read 0 g in that run). With the full 3x3 gain a tilt of
   one run of a ± pair is, in the least-squares sense, half misalignment and half
@@ -116,7 +116,8 @@ def find_run_events(
     labels = [eng.record_names[int(eng.sample_run[idx[0]])] for idx in runs]
     resid = {a: eng.residuals(a, specs[a].terms(a))[0] for a in AXES}
     # Steps: one pass over every run, the corrected test over all windows.
-    n_windows = sum(max(1, idx.size // max(10, min(120, idx.size // 20))) for idx in runs)
+    # Every position of every run counts as a test (conservative: the windows overlap).
+    n_windows = sum(idx.size for idx in runs)
     steps: list[Term] = []
     for idx, label in zip(runs, labels, strict=True):
         k, stat, _ = _best_jump(resid, idx, eng.elapsed_s)
