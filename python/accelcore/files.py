@@ -221,8 +221,7 @@ def check_input_file(path: _PathLike, what: str, *, max_bytes: int | None = None
             reason = f"cannot read {what}: it is {kind}, not a file"
         elif max_bytes is not None and st.st_size > max_bytes:
             reason = (
-                f"not read: {st.st_size} bytes, far more than a {what} holds "
-                f"(at most {max_bytes})"
+                f"not read: {st.st_size} bytes, far more than a {what} holds (at most {max_bytes})"
             )
         else:
             return

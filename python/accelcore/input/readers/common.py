@@ -141,7 +141,7 @@ class GuardedLog(io.RawIOBase):
     def __init__(self, path: str) -> None:
         super().__init__()
         self._path = path
-        self._fh = open(path, "rb")  # noqa: SIM115 - closed by close()
+        self._fh = open(path, "rb")  # closed by close()
         self._line = 1  # number of the line being read
         self._since = 0  # bytes read since its start
 
