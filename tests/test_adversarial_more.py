@@ -502,7 +502,7 @@ def test_kill_9_of_bulk_ends_its_workers_and_leaves_no_half_written_file(
 def test_two_bulk_runs_at_once_into_one_folder_end_with_whole_equal_tables(
     base: Path, tmp_path: Path
 ) -> None:
-    archive = _archive(base, tmp_path, 3)
+    archive = _archive(base, tmp_path, 2)
     out, alone = tmp_path / "out", tmp_path / "alone"
     argv: list[str | Path] = [sys.executable, "-m", "accelcore", "bulk", archive, "--jobs", "1"]
     argv.append("--quiet")
