@@ -3,7 +3,9 @@
 :func:`atomic_write` writes a whole content at once; :func:`atomic_open` is the
 same rule for an output written piece by piece (a log of any size compensated
 in chunks). :func:`check_outputs` refuses, before anything is read, an output
-that is, or links to, one of a command's inputs.
+that is, or links to, one of a command's inputs; :func:`check_input_file`
+refuses an input that is not a regular file (a FIFO would block the read) or is
+far larger than its kind can be.
 
 Foundation: imports only :mod:`accelcore.errors`.
 """
@@ -12,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -19,7 +22,7 @@ from typing import BinaryIO
 
 from accelcore.errors import AccelcoreIOError, OutputConflictError
 
-__all__ = ["atomic_open", "atomic_write", "check_outputs"]
+__all__ = ["atomic_open", "atomic_write", "check_input_file", "check_outputs"]
 
 _PathLike = str | os.PathLike[str]
 
@@ -173,3 +176,55 @@ def atomic_write(path: str | os.PathLike[str], data: bytes | str, *, mode: int =
     payload = data.encode("utf-8") if isinstance(data, str) else data
     with atomic_open(path, mode=mode) as fh:
         fh.write(payload)
+
+
+def check_input_file(path: _PathLike, what: str, *, max_bytes: int | None = None) -> None:
+    """Refuse an input that is not a regular file, or larger than ``max_bytes``, before opening it.
+
+    Opening a FIFO blocks until someone writes to it, a device such as
+    ``/dev/zero`` never ends, and a 2 GB sparse file reads as 2 GB of zeros:
+    each is named for what it is instead.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The input.
+    what : str
+        What the input should be, for the message (``"calibration file"``).
+    max_bytes : int, optional
+        Largest size accepted.
+
+    Raises
+    ------
+    accelcore.AccelcoreIOError
+        Missing, unreadable, not a regular file (the message says "a folder",
+        "a FIFO (named pipe)" or "a device"), or too large; ``.path`` is set.
+    """
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        reason = f"cannot read {what}: no such file"
+    except OSError as exc:
+        reason = f"cannot read {what}: {exc.strerror}"
+    else:
+        mode = st.st_mode
+        if not stat.S_ISREG(mode):
+            kind = (
+                "a folder"
+                if stat.S_ISDIR(mode)
+                else "a FIFO (named pipe)"
+                if stat.S_ISFIFO(mode)
+                else "a device"
+                if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+                else "not a regular file"
+            )
+            reason = f"cannot read {what}: it is {kind}, not a file"
+        elif max_bytes is not None and st.st_size > max_bytes:
+            reason = (
+                f"not read: {st.st_size} bytes, far more than a {what} holds (at most {max_bytes})"
+            )
+        else:
+            return
+    err = AccelcoreIOError(f"{path}: {reason}")
+    err.path = str(path)
+    raise err

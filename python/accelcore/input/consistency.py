@@ -113,6 +113,13 @@ def check_labels(runs: Sequence[Run], units: str, sensor: str | None, where: str
     if not live:
         return
     levels = np.array([np.nanmedian(r.output, axis=0) for r in live])
+    if not np.isfinite(levels).all():  # finite cells whose block means overflow (1e308)
+        i, a = (int(k) for k in np.argwhere(~np.isfinite(levels))[0])
+        raise SessionFormatError(
+            f"{where}: run {_name(live[i])}: the {AXES[a]} output has no finite level (its "
+            "values are so large that their block means overflow): not a sensor output; "
+            "check that column of the log"
+        )
     grav = np.array([r.gravity_g for r in live])
     for a, axis in enumerate(AXES):
         g, m = grav[:, a], levels[:, a]

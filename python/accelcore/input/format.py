@@ -6,7 +6,8 @@ read on :attr:`accelcore.Session.format`; every other room (the CLI, plots,
 bulk) takes the settings from there, or calls :meth:`SessionFormat.read`,
 instead of parsing the TOML again.
 
-May import: the foundation only (:mod:`accelcore.constants`, :mod:`accelcore.errors`).
+May import: the foundation only (:mod:`accelcore.constants`, :mod:`accelcore.errors`,
+:mod:`accelcore.files`).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 import difflib
 import hashlib
 import math
+import os
 import stat
 import tomllib
 from collections.abc import Mapping, Sequence
@@ -34,6 +36,7 @@ from accelcore.constants import (
     UNITS,
 )
 from accelcore.errors import AccelcoreIOError, SessionFormatError
+from accelcore.files import check_input_file
 
 __all__ = [
     "TOML_NAME",
@@ -46,6 +49,8 @@ __all__ = [
 
 #: Name of the settings file of a session folder.
 TOML_NAME = "session.toml"
+#: A session.toml is a few kB; a larger file is not read (a 2 GB sparse file would be).
+MAX_TOML_BYTES = 16 << 20
 
 
 def gravity_of(orientation: str) -> NDArray[np.float64]:
@@ -215,16 +220,20 @@ class SessionFormat:
             ``session.toml`` is missing, not TOML, of another format version, or
             has a missing or invalid key; the message names the file and the key.
         accelcore.AccelcoreIOError
-            The folder, or (with ``check_files``) a run file, does not exist.
+            The folder, or (with ``check_files``) a run file, does not exist;
+            ``session.toml`` is not a regular file (a FIFO, a folder, a link loop)
+            or is over 16 MiB.
         """
         folder = Path(path)
         toml_path = folder / TOML_NAME
         if not folder.exists():
             raise AccelcoreIOError(f"{folder}: no such session folder")
-        if not toml_path.is_file():
+        if not toml_path.is_file() and not os.path.lexists(toml_path):
             raise SessionFormatError(
                 f"{toml_path}: missing (a session folder holds a session.toml)"
             )
+        # A FIFO, a folder or a link loop is named for what it is; a 2 GB file is not read.
+        check_input_file(toml_path, "session.toml", max_bytes=MAX_TOML_BYTES)
         data = toml_path.read_bytes()
         try:
             # A byte-order mark (some Windows editors write one) is not TOML: skip it.

@@ -345,7 +345,7 @@ def _check_outliers(
     if bad.size == 0:
         return []
     first = float(run.time_s[bad[0]])
-    worst = float(np.max(np.abs(resid[bad])) / sigma)
+    worst = float(np.max(np.abs(resid[bad]))) / sigma  # a Python float: inf, not a warning
     return [
         QualityIssue(
             "outliers",

@@ -36,7 +36,7 @@ from accelcore.errors import (
     CalibrationFileError,
     InsufficientDataError,
 )
-from accelcore.files import atomic_write, check_outputs
+from accelcore.files import atomic_write, check_input_file, check_outputs
 from accelcore.model import AXES, Basis, TemperaturePower, Term
 from accelcore.result import datasheet
 from accelcore.result.compensator import Compensator
@@ -52,6 +52,8 @@ __all__ = [
 ]
 
 CALIBRATION_FORMAT = "accelcore-calibration/1"
+#: A calibration file is a few kB; anything this large is not one (it is not read).
+MAX_CALIBRATION_BYTES = 64 << 20
 
 
 def nominal_sensitivity(units: str, sensor: str | None) -> tuple[float, float, float] | None:
@@ -472,8 +474,11 @@ class Calibration:
         ------
         accelcore.CalibrationFileError
             Corrupted, truncated, of another format version, or for another sensor.
+        accelcore.AccelcoreIOError
+            Missing, not a regular file (a FIFO, a folder) or over 64 MiB.
         """
         where = str(path)
+        check_input_file(path, "calibration file", max_bytes=MAX_CALIBRATION_BYTES)
         try:
             data = Path(path).read_bytes()
         except OSError as exc:

@@ -30,8 +30,9 @@ from accelcore.constants import DEFAULT_COLUMNS as _DEFAULT_COLUMNS
 from accelcore.constants import DELIMITERS as _DELIMITERS
 from accelcore.constants import TIME_UNITS as _TIME_UNITS
 from accelcore.errors import AccelcoreError, ParseError, TemperatureRangeWarning
-from accelcore.files import atomic_open
+from accelcore.files import atomic_open, check_input_file
 from accelcore.input.format import SessionFormat
+from accelcore.input.readers.common import GuardedLog
 from accelcore.input.readers.opener import is_flight_log
 from accelcore.result.calibration import Calibration
 
@@ -123,7 +124,8 @@ def _text_chunks(
     source: Path, delimiter: str, needed: Sequence[str], chunk_rows: int
 ) -> Generator[pd.DataFrame]:
     try:
-        header = pd.read_csv(source, sep=_DELIMITERS[delimiter], nrows=0)
+        with GuardedLog(str(source)) as head:  # a line over 1 MiB is refused, not buffered
+            header = pd.read_csv(head, sep=_DELIMITERS[delimiter], nrows=0)
     except pd.errors.EmptyDataError as exc:
         raise CliDataError(f"{source}: empty file, no header row") from exc
     except UnicodeDecodeError as exc:
@@ -132,8 +134,9 @@ def _text_chunks(
             "Parquet (.parquet) and flight logs (.ulg, .bin)"
         ) from None
     _check_columns(source, needed, [str(c) for c in header.columns])
+    body = GuardedLog(str(source))
     reader = pd.read_csv(
-        source,
+        body,
         sep=_DELIMITERS[delimiter],
         usecols=list(needed),
         dtype=dict.fromkeys(needed, np.float64),
@@ -141,7 +144,7 @@ def _text_chunks(
     )
 
     def frames() -> Generator[pd.DataFrame]:
-        with reader:
+        with body, reader:
             yield from reader
 
     return frames()
@@ -204,6 +207,7 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
             "--delimiter and --time-unit"
         )
     names, delimiter, time_unit = (_FLIGHT_COLUMNS, ",", "s") if flight else _layout(args)
+    check_input_file(source, "log")  # a FIFO would block, a device never end
     cal = Calibration.load(args.calibration)
     extra_names = sorted(
         {t.basis.column for m in cal.axes.values() for t in m.terms if t.basis.column is not None}

@@ -5,6 +5,7 @@ May import: the foundation and :mod:`accelcore.input.format`.
 
 from __future__ import annotations
 
+import io
 import math
 import os
 from collections.abc import Mapping, Sequence
@@ -18,10 +19,15 @@ from accelcore.constants import DEFAULT_COLUMNS, ORIENTATIONS, TIME_UNITS
 from accelcore.errors import AccelcoreIOError, ParameterError, ParseError
 from accelcore.input.format import check_distinct_columns
 
-__all__ = ["CHUNK_ROWS"]
+__all__ = ["CHUNK_ROWS", "MAX_LINE_BYTES", "GuardedLog"]
 
 #: Rows read per chunk: bounds the memory of every reader, whatever the file size.
 CHUNK_ROWS = 65_536
+
+#: Longest line a text log may hold, bytes (the Rust reader's limit): a longer
+#: one is binary data or a file without line ends (a sparse file's hole reads as
+#: zeros with no line end), refused before it is buffered whole.
+MAX_LINE_BYTES = 1 << 20
 
 _ROLES = ("time", "temperature", "x", "y", "z")
 _LABELS = tuple(ORIENTATIONS)  # index -> label; -1 means "no label"
@@ -111,3 +117,60 @@ def _timestamp_seconds(data: NDArray[Any], origin: list[Any]) -> _FloatArray:
     if origin:
         seconds[valid] = (stamps[valid] - origin[0]).astype(np.int64).astype(np.float64) * 1e-9
     return seconds
+
+
+class GuardedLog(io.RawIOBase):
+    """A text log opened in binary for pandas, refusing a line over :data:`MAX_LINE_BYTES`.
+
+    The check runs on the bytes as they are read, so a 2 GB sparse file or a
+    64 MB line fails after about a megabyte instead of being buffered whole.
+
+    Parameters
+    ----------
+    path : str
+        The log (checked to be a regular file by the caller).
+
+    Raises
+    ------
+    accelcore.ParseError
+        From ``read``: a line longer than :data:`MAX_LINE_BYTES` (line and column 1).
+    """
+
+    _PIECE = 1 << 18  # bytes per read; below MAX_LINE_BYTES, so a line end is never missed
+
+    def __init__(self, path: str) -> None:
+        super().__init__()
+        self._path = path
+        self._fh = open(path, "rb")  # closed by close()
+        self._line = 1  # number of the line being read
+        self._since = 0  # bytes read since its start
+
+    def readable(self) -> bool:
+        """Return True: the log is read."""
+        return True
+
+    def readinto(self, buffer: Any) -> int:
+        """Read up to 256 KiB into ``buffer``; refuse a line over the limit."""
+        view = memoryview(buffer).cast("B")[: self._PIECE]
+        n = self._fh.readinto(view) or 0
+        piece = bytes(view[:n])
+        first = piece.find(b"\n")
+        if self._since + (n if first < 0 else first) > MAX_LINE_BYTES:
+            raise _parse_error(
+                self._path,
+                self._line,
+                1,
+                f"line longer than {MAX_LINE_BYTES} bytes: not a delimited text log "
+                "(binary data, or missing line ends?)",
+            )
+        if first < 0:
+            self._since += n
+        else:
+            self._line += piece.count(b"\n")
+            self._since = n - piece.rfind(b"\n") - 1
+        return n
+
+    def close(self) -> None:
+        """Close the file."""
+        self._fh.close()
+        super().close()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 from collections.abc import Iterator, Mapping
@@ -18,6 +19,7 @@ from accelcore.input.headers import check_unique_names, first_line_fields
 from accelcore.input.readers import common
 from accelcore.input.readers.common import (
     _ROLES,
+    GuardedLog,
     _check_file,
     _check_rate,
     _check_settle,
@@ -137,20 +139,29 @@ def read_orientation_log(
         "encoding": "utf-8-sig",
         "engine": "c",
     }
+    # Read through GuardedLog: a line over the limit (a sparse file, no line
+    # ends) is refused after a megabyte rather than buffered whole.
+    stack = contextlib.ExitStack()
     try:
-        header = [str(c).strip() for c in pd.read_csv(file, nrows=0, **options).columns]
+        with GuardedLog(file) as head:
+            header = [str(c).strip() for c in pd.read_csv(head, nrows=0, **options).columns]
         reader = pd.read_csv(
-            file,
+            stack.enter_context(GuardedLog(file)),
             chunksize=common.CHUNK_ROWS,
             dtype={orientation_column: object},
             skip_blank_lines=False,
             **options,
         )
     except pd.errors.EmptyDataError:
+        stack.close()
         raise _parse_error(file, 1, 1, "empty file: no header") from None
     except UnicodeDecodeError as exc:
+        stack.close()
         raise _parse_error(file, 1, 1, f"not UTF-8 text: {exc}") from None
-    with reader:
+    except BaseException:
+        stack.close()
+        raise
+    with stack, reader:
         check_unique_names(file, first_line_fields(file, DELIMITERS[delimiter]), header_line=True)
         wanted = [names[r] for r in _ROLES] + [orientation_column]
         if any(w not in header for w in wanted):
