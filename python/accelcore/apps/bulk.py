@@ -338,20 +338,32 @@ def worker_count(jobs: int | None, n_sessions: int) -> int:
 def watch_parent(parent_pid: int, interval_s: float = 1.0) -> None:
     """End this worker process when its parent is gone (a ``kill -9`` leaves no one to stop it).
 
-    Starts a daemon thread that checks every ``interval_s`` whether the parent
-    process is still ``parent_pid``; once it is not (the worker was adopted by
-    another process), the worker exits at once with status 1.
+    Starts a daemon thread that checks every ``interval_s`` that the process
+    which asked for this worker (``parent_pid``) is alive and that this worker's
+    own parent (that process when workers are forked, a fork server otherwise) is
+    the one it started with; once either fails, the worker exits at once with
+    status 1.
 
     Parameters
     ----------
     parent_pid : int
-        Process id of the parent that started this worker.
+        Process id of the process that started the pool.
     interval_s : float, default 1.0
         Seconds between checks.
     """
+    first_parent = os.getppid()
+
+    def alive(pid: int) -> bool:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:
+            return True
+        return True
 
     def watch() -> None:
-        while os.getppid() == parent_pid:
+        while os.getppid() == first_parent and alive(parent_pid):
             time.sleep(interval_s)
         os._exit(1)
 
