@@ -120,3 +120,134 @@ def test_without_narwhals_polars_is_one_line_naming_the_extra_and_pandas_still_w
     with pytest.raises(ImportError, match=r"polars DataFrame .*pip install accelcore\[frames\]"):
         _session(sim, pl.DataFrame)
     _assert_same_session(_session(sim, pd.DataFrame), _session(sim, lambda d: d))
+
+
+# ---------------------------------------------------------------- a labelled frame out
+
+
+@pytest.fixture(scope="module")
+def cal(sim: Any) -> accelcore.Calibration:
+    return accelcore.calibrate(_session(sim, lambda d: d))
+
+
+def _in_range(sim: Any, i: int = 4) -> dict[str, Any]:
+    """Run i's samples inside the calibrated range (no warning)."""
+    run = dict(sim.runs[i].columns)
+    keep = (run["temp_c"] > 5.0) & (run["temp_c"] < 55.0)
+    return {k: np.asarray(v)[keep] for k, v in run.items()}
+
+
+def test_compensate_frame_labels_the_same_numbers_as_compensate(
+    sim: Any, cal: accelcore.Calibration
+) -> None:
+    run = _in_range(sim)
+    frame = pd.DataFrame(run, index=pd.RangeIndex(100, 100 + len(run["x"]), name="sample"))
+    frame["note"] = "chamber A"  # a text column the model does not read is left alone
+    out = cal.compensate_frame(frame)
+    assert list(out.columns) == ["time_s", "temp_c", "x_g", "y_g", "z_g"]
+    assert out.index.equals(frame.index)
+    raw = np.column_stack([run["x"], run["y"], run["z"]])
+    want = cal.compensate(raw, run["temp_c"], run["time_s"])
+    np.testing.assert_array_equal(out[["x_g", "y_g", "z_g"]].to_numpy(), want, strict=True)
+    np.testing.assert_array_equal(out["temp_c"].to_numpy(), run["temp_c"])
+    by_polars = cal.compensate_frame(pl.DataFrame(run))
+    pd.testing.assert_frame_equal(by_polars, out.reset_index(drop=True), check_exact=True)
+
+
+def test_compensate_frame_takes_role_names_and_keeps_date_times(
+    sim: Any, cal: accelcore.Calibration
+) -> None:
+    run = _in_range(sim)
+    stamps = np.datetime64("2024-05-01T08:00:00", "ns") + (run["time_s"] * 1e9).astype(
+        "timedelta64[ns]"
+    )
+    frame = pl.DataFrame(
+        {"stamp": stamps, "die_c": run["temp_c"], **{f"a{k}": run[k] for k in "xyz"}}
+    )
+    roles = {"time": "stamp", "temperature": "die_c", "x": "ax", "y": "ay", "z": "az"}
+    out = cal.compensate_frame(frame, columns=roles)
+    assert list(out.columns) == ["stamp", "die_c", "x_g", "y_g", "z_g"]
+    assert out["stamp"].dtype.kind == "M" and out["stamp"].iloc[0] == pd.Timestamp(stamps[0])
+    plain = cal.compensate_frame(run)
+    np.testing.assert_array_equal(out[["x_g", "y_g", "z_g"]], plain[["x_g", "y_g", "z_g"]])
+
+
+def test_compensate_frame_errors_name_the_column_and_the_row(
+    sim: Any, cal: accelcore.Calibration
+) -> None:
+    run = _in_range(sim)
+    with pytest.raises(SessionFormatError, match=r"frame: missing column.*temp_c"):
+        cal.compensate_frame({k: v for k, v in run.items() if k != "temp_c"})
+    frame = pd.DataFrame(run).astype({"z": object})
+    frame.loc[12, "z"] = "n/a"
+    with pytest.raises(ParseError, match=r"frame, column 'z' \(column 5\), row 12"):
+        cal.compensate_frame(frame)
+
+
+def test_compensate_frame_warns_outside_the_calibrated_range_at_the_callers_line(
+    sim: Any, cal: accelcore.Calibration
+) -> None:
+    with pytest.warns(accelcore.errors.TemperatureRangeWarning) as record:
+        cal.compensate_frame(dict(sim.runs[0].columns))
+    assert record[0].filename == __file__
+
+
+# ---------------------------------------------------------------- Parquet out of the CLI
+
+
+def _cli(*argv: Any) -> tuple[int, str, str]:
+    import io
+
+    from accelcore.apps import cli
+
+    out, err = io.StringIO(), io.StringIO()
+    old, sys.stderr = sys.stderr, err
+    try:
+        status = cli.main([str(a) for a in argv], stdout=out)
+    finally:
+        sys.stderr = old
+    return status, out.getvalue(), err.getvalue()
+
+
+def test_compensate_writes_parquet_with_the_numbers_of_compensate_frame(
+    sim: Any, cal: accelcore.Calibration, tmp_path: Any
+) -> None:
+    pq = pytest.importorskip("pyarrow.parquet")
+    cal_path, source = tmp_path / "cal.json", tmp_path / "log.csv"
+    cal.save(cal_path)
+    run = _in_range(sim)
+    pd.DataFrame(run).to_csv(source, index=False, float_format="%.17g")
+    target = tmp_path / "out.parquet"
+    status, out, err = _cli("compensate", cal_path, source, "-o", target, "--chunk-rows", "333")
+    assert f"compensated {len(run['x'])} rows" in out
+    assert status == 0, err
+    table = pq.read_table(target)
+    assert table.num_rows == len(run["x"]) and table.column_names == [
+        "time_s",
+        "temp_c",
+        "x_g",
+        "y_g",
+        "z_g",
+    ]
+    got = table.to_pandas()
+    want = accelcore.Calibration.load(cal_path).compensate_frame(run)
+    pd.testing.assert_frame_equal(got, want, check_exact=True)
+    status, _, err = _cli("compensate", cal_path, source, "-o", tmp_path / "out.csv")
+    as_csv = pd.read_csv(tmp_path / "out.csv")
+    np.testing.assert_allclose(as_csv.to_numpy(), got.to_numpy(), rtol=1e-9, atol=6e-8)
+
+
+def test_parquet_output_without_pyarrow_is_one_line_naming_the_extra(
+    sim: Any, cal: accelcore.Calibration, tmp_path: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    cal_path, source = tmp_path / "cal.json", tmp_path / "log.csv"
+    cal.save(cal_path)
+    pd.DataFrame(_in_range(sim)).to_csv(source, index=False)
+    for name in [m for m in sys.modules if m == "pyarrow" or m.startswith("pyarrow.")]:
+        monkeypatch.setitem(sys.modules, name, None)
+    monkeypatch.setitem(sys.modules, "pyarrow", None)
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)
+    status, out, err = _cli("compensate", cal_path, source, "-o", tmp_path / "out.parquet")
+    assert status == 2 and out == ""
+    assert err.count("\n") == 1 and "pip install accelcore[parquet]" in err, err
+    assert not (tmp_path / "out.parquet").exists()

@@ -35,6 +35,7 @@ from accelcore.model import AXES, Basis, TemperaturePower, Term
 from accelcore.result import datasheet
 from accelcore.result.calibration_file import CALIBRATION_FORMAT, read_body, write_body
 from accelcore.result.compensator import Compensator
+from accelcore.result.frame import compensated_frame
 from accelcore.result.summary import AxisSummary
 
 __all__ = [
@@ -372,6 +373,48 @@ class Calibration:
             model is then extrapolated, never clamped.
         """
         return self.compensator(warn_stacklevel=4).push(raw, temp_c, time_s, extras)
+
+    def compensate_frame(
+        self, data: Mapping[str, Any] | Any, *, columns: Mapping[str, str] | None = None
+    ) -> pd.DataFrame:
+        """Compensate a table and return a labelled frame: time, temperature, ``x_g, y_g, z_g``.
+
+        Parameters
+        ----------
+        data : mapping of str to array_like, or DataFrame
+            A mapping of column name to 1-D array, a pandas DataFrame, or any
+            DataFrame :meth:`accelcore.Session.from_arrays` takes (polars,
+            pyarrow, ... through narwhals: ``pip install accelcore[frames]``),
+            with the time (s, or date/times), temperature (°C), x, y, z columns
+            and the extra columns the model reads. Other columns are ignored.
+        columns : mapping of str to str, optional
+            Column names by role (``time``, ``temperature``, ``x``, ``y``,
+            ``z``), defaults ``time_s``, ``temp_c``, ``x``, ``y``, ``z``, as in
+            :meth:`accelcore.Session.from_arrays`.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The time column (as given when date/times, else in s) and the
+            temperature column under their own names, then the acceleration in
+            g as ``x_g``, ``y_g``, ``z_g``; a pandas input's index is kept.
+            Rows with non-finite input are NaN.
+
+        Raises
+        ------
+        accelcore.AccelcoreError
+            A column is missing or a cell is not a number (naming the column
+            and the row), as :meth:`accelcore.Session.from_arrays` raises.
+
+        Warns
+        -----
+        TemperatureRangeWarning
+            When a temperature lies outside :attr:`temperature_range_c`.
+        """
+        extras = sorted(
+            {t.basis.column for m in self.axes.values() for t in m.terms if t.basis.column}
+        )
+        return compensated_frame(self.compensator(warn_stacklevel=5), data, columns, extras)
 
     def compensator(self, *, warn_stacklevel: int = 3) -> Compensator:
         """Return a streaming compensator for logs larger than memory.

@@ -30,7 +30,10 @@ _EPILOGS = {
       --column temperature=die_temp --column time=t_ms --time-unit ms
   accelcore compensate px4-imu1.cal.json flight.ulg --instance 1 -o flight_g.csv
 
-  The output holds the time and temperature columns, then x_g, y_g, z_g.""",
+  accelcore compensate adxl335.cal.json flight_log.csv -o flight_log_g.parquet
+
+  The output holds the time and temperature columns, then x_g, y_g, z_g: CSV,
+  or Parquet when OUT ends in .parquet (pip install accelcore[parquet]).""",
     "export": """examples:
   accelcore export adxl335.cal.json --to px4 --device-id 2621474 -o tc_accel.params
   accelcore export adxl335.cal.json --to ardupilot --imu 1 -o tcal.param
@@ -191,7 +194,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="raw log: delimited text or .parquet (any size: read in chunks), or a flight log "
         "(.ulg, .bin)",
     )
-    p.add_argument("-o", "--output", required=True, metavar="OUT.csv", help="output CSV")
+    p.add_argument(
+        "-o", "--output", required=True, metavar="OUT", help="output CSV, or .parquet (Parquet)"
+    )
     p.add_argument(
         "--session",
         metavar="SESSION",
