@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from accelcore.apps.cli.documents import require_folder
 from accelcore.apps.cli.inputs import CliDataError, UsageError, guard, need, open_session
+from accelcore.apps.progress import Progress
 from accelcore.constants import DEFAULT_COLUMNS as _DEFAULT_COLUMNS
 from accelcore.constants import DELIMITERS as _DELIMITERS
 from accelcore.constants import TIME_UNITS as _TIME_UNITS
@@ -262,7 +263,8 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
     n_rows = n_out_of_range = n_nan = 0
     out_names = [names["time"], names["temperature"], "x_g", "y_g", "z_g"]
     # Written chunk by chunk (the log may not fit in memory), replaced atomically at the end.
-    with contextlib.closing(chunks), atomic_open(target) as fh:
+    bar = Progress(None, what="rows compensated", enabled=not args.quiet)
+    with contextlib.closing(chunks), contextlib.closing(bar), atomic_open(target) as fh:
         sink = _CsvSink(fh, out_names) if pq is None else _ParquetSink(pq, fh, out_names)
         try:
             for frame, g, n_out in _compensate_chunks(
@@ -273,6 +275,7 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
                 )
                 sink.write(block)
                 n_rows += len(frame)
+                bar.advance(len(frame))
                 n_out_of_range += n_out
                 n_nan += int(np.count_nonzero(~np.isfinite(g).all(axis=1)))
         except ValueError as exc:

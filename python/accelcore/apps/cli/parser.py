@@ -155,7 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     def add(name: str, help_text: str, **kw: Any) -> argparse.ArgumentParser:
-        return sub.add_parser(
+        p = sub.add_parser(
             name,
             help=help_text,
             description=help_text,
@@ -163,6 +163,9 @@ def build_parser() -> argparse.ArgumentParser:
             formatter_class=fmt,
             **kw,
         )
+        if name != "bench":  # every argument after 'bench' is the bench runner's
+            p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+        return p
 
     p = add("calibrate", "calibrate a session: summary and datasheet comparison")
     p.add_argument(
@@ -256,7 +259,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster (tcp://HOST:PORT)")
     p.add_argument("--no-diagnose", action="store_true", help="calibrate only")
     p.add_argument("--force", action="store_true", help="redo sessions that are up to date")
-    p.add_argument("--quiet", action="store_true", help="no progress output")
     _add_instance(p)
     _add_no_cache(p)
     p.set_defaults(func=commands.cmd_bulk, data_path="archive")
