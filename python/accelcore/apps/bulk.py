@@ -33,9 +33,7 @@ from __future__ import annotations
 import csv
 import io
 import json
-import math
 import os
-import sys
 import threading
 import time
 import traceback
@@ -49,6 +47,7 @@ import pandas as pd
 
 from accelcore._accelcore import __version__, merge_runs, plan_split, read_run_range
 from accelcore.apps.fleet_rows import fleet_rows
+from accelcore.apps.progress import Progress
 from accelcore.diagnosis import diagnose as run_diagnosis
 from accelcore.errors import AccelcoreError
 from accelcore.files import atomic_write
@@ -242,41 +241,6 @@ class BulkResult:
     def ok(self) -> bool:
         """True when no session failed."""
         return self.failures.empty
-
-
-class _Progress:
-    """A progress bar on a terminal, plain log lines otherwise."""
-
-    def __init__(self, total: int, stream: TextIO | None, enabled: bool) -> None:
-        self.total, self.done, self.start = total, 0, time.monotonic()
-        self.stream = stream or sys.stderr
-        self.enabled = enabled
-        self.tty = enabled and self.stream.isatty()
-        self._last_line = 0.0
-
-    def update(self, outcome: SessionOutcome) -> None:
-        self.done += 1
-        if not self.enabled:
-            return
-        elapsed = time.monotonic() - self.start
-        rate = self.done / elapsed if elapsed > 0 else 0.0
-        left = (self.total - self.done) / rate if rate > 0 else math.nan
-        status = "FAILED" if outcome.failure else ("reused" if outcome.reused else "ok")
-        if self.tty:
-            width = 30
-            filled = int(width * self.done / max(self.total, 1))
-            self.stream.write(
-                f"\r[{'#' * filled}{'.' * (width - filled)}] {self.done}/"
-                f"{self.total} {rate * 60:.1f}/min, {left:.0f} s left  "
-            )
-            if self.done == self.total:
-                self.stream.write("\n")
-        else:
-            self.stream.write(
-                f"{self.done}/{self.total} {outcome.session}: {status} "
-                f"({rate * 60:.1f}/min, {left:.0f} s left)\n"
-            )
-        self.stream.flush()
 
 
 def _table_bytes(frame: pd.DataFrame, columns: Sequence[str]) -> bytes:
@@ -483,7 +447,15 @@ def bulk(
     archive_p, out_p = Path(archive), Path(out)
     sessions = find_sessions(archive_p)
     out_p.mkdir(parents=True, exist_ok=True)
-    bar = _Progress(len(sessions), stream, progress)
+    bar = Progress(
+        len(sessions), stream=stream, enabled=progress, log_lines=True, rate=True, delay_s=0.0
+    )
+
+    def done(o: SessionOutcome) -> None:
+        bar.advance(
+            item=o.session, status="FAILED" if o.failure else ("reused" if o.reused else "ok")
+        )
+
     own_client = None
     if scheduler is not None and client is None:
         import distributed
@@ -493,11 +465,12 @@ def bulk(
     options = {"diagnose": diagnose, "force": force, "cache": cache, "instance": instance}
     try:
         if client is not None:
-            outcomes = _run_dask(client, archive_p, sessions, out_p, options, bar.update)
+            outcomes = _run_dask(client, archive_p, sessions, out_p, options, done)
         else:
             n_jobs = worker_count(jobs, len(sessions))
-            outcomes = _run_local(archive_p, sessions, out_p, n_jobs, options, bar.update)
+            outcomes = _run_local(archive_p, sessions, out_p, n_jobs, options, done)
     finally:
+        bar.close()
         if own_client is not None:
             own_client.close()
     outcomes.sort(key=lambda o: o.session)

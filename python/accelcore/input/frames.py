@@ -1,29 +1,37 @@
 """In-memory runs checked cell by cell: what :meth:`accelcore.Session.from_arrays` accepts.
 
-A run's data is a mapping of column name to 1-D array, or a pandas DataFrame.
-Every problem is an :class:`accelcore.AccelcoreError` naming the run, the
-column and, for a bad cell, the row: a text cell, a column of another length,
-a 2-D column, a repeated column name, two roles mapped onto one column.
+A run's data is a mapping of column name to 1-D array, a pandas DataFrame, or
+any other eager DataFrame narwhals knows (polars, pyarrow, Modin, cuDF...; ``pip
+install accelcore[frames]``): :func:`frame_columns` is the one adapter, and
+pandas, a base dependency, needs no extra. Every problem is an
+:class:`accelcore.AccelcoreError` naming the run, the column and, for a bad
+cell, the row: a text cell, a column of another length, a 2-D column, a
+repeated column name, two roles mapped onto one column.
 A ``datetime64`` time column is read as seconds from its first valid stamp
 (a ``timedelta64`` one as seconds), never as raw nanoseconds.
 
-May import: the foundation and :mod:`accelcore.input.format`.
+May import: the foundation and :mod:`accelcore.input.format`; narwhals (optional)
+inside :func:`frame_columns`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+import pandas as pd
 from numpy.typing import NDArray
 
 from accelcore.constants import DEFAULT_COLUMNS
 from accelcore.errors import ParameterError, ParseError, SessionFormatError, ShapeError
 from accelcore.input.format import check_distinct_columns
 
-__all__ = ["run_table"]
+__all__ = ["frame_columns", "run_table"]
+
+#: What installs the DataFrame adapter (narwhals) for frames other than pandas.
+FRAMES_EXTRA = "pip install accelcore[frames]"
 
 _ROLES = ("time", "temperature", "x", "y", "z")
 _FloatArray = NDArray[np.float64]
@@ -61,26 +69,106 @@ def column_roles(columns: Mapping[str, str] | None) -> dict[str, str]:
     return names
 
 
+def frame_columns(data: Mapping[str, Any] | Any, label: str) -> tuple[list[str], list[Any]]:
+    """Return the column names of one table and its columns, as the table holds them.
+
+    Parameters
+    ----------
+    data : mapping, pandas.DataFrame or another eager DataFrame
+        A mapping of column name to 1-D array; a pandas DataFrame; or any eager
+        DataFrame narwhals supports (polars, pyarrow.Table, ...), read through
+        narwhals (``pip install accelcore[frames]``).
+    label : str
+        How messages name the table (``"run 2 (OX-)"``).
+
+    Returns
+    -------
+    names : list of str
+        The column names, in the table's order (as text).
+    columns : list
+        Each column, ready for :func:`numpy.asarray` (a NumPy array for a frame
+        read through narwhals).
+
+    Raises
+    ------
+    accelcore.SessionFormatError
+        A column name repeats, or the data is a lazy frame or not a table.
+    ImportError
+        A DataFrame other than pandas without narwhals installed; the message
+        names the extra.
+    """
+    if isinstance(data, Mapping):
+        keys = list(data)
+        return _distinct([str(k) for k in keys], label), [data[k] for k in keys]
+    if isinstance(data, pd.DataFrame):
+        keys = list(data.columns)
+        names = _distinct([str(k) for k in keys], label)
+        return names, [data.iloc[:, i] for i in range(len(keys))]
+    try:
+        import narwhals.stable.v2 as nw
+        from narwhals.exceptions import DuplicateError
+    except ImportError:
+        raise ImportError(
+            f"{label}: a {type(data).__module__.split('.')[0]} {type(data).__name__} is read "
+            f"through narwhals: {FRAMES_EXTRA} (or pass a dict of arrays or a pandas DataFrame)"
+        ) from None
+    try:
+        frame = nw.from_native(data, pass_through=True)
+    except DuplicateError:
+        names = getattr(data, "column_names", None) or getattr(data, "columns", [])
+        _distinct([str(c) for c in names], label)
+        raise
+    if isinstance(frame, nw.LazyFrame):
+        raise SessionFormatError(
+            f"{label}: a lazy frame holds no data yet; collect it first (.collect())"
+        )
+    if not isinstance(frame, nw.DataFrame):
+        raise SessionFormatError(
+            f"{label}: expected a mapping of column name to array or a DataFrame, "
+            f"got {type(data).__name__}"
+        )
+    names = _distinct([str(c) for c in frame.columns], label)
+    return names, [frame.get_column(c).to_numpy() for c in frame.columns]
+
+
+def _distinct(names: list[str], label: str) -> list[str]:
+    seen: set[str] = set()
+    for name in names:
+        if name in seen:
+            raise SessionFormatError(
+                f"{label}: column name {name!r} appears twice; every column needs a distinct name"
+            )
+        seen.add(name)
+    return names
+
+
 def run_table(
-    data: Mapping[str, Any] | Any, label: str, columns: Mapping[str, str] | None
+    data: Mapping[str, Any] | Any,
+    label: str,
+    columns: Mapping[str, str] | None,
+    *,
+    extras: Sequence[str] | None = None,
 ) -> tuple[list[_FloatArray], list[str]]:
     """Check one run's data and return its columns as float64 arrays.
 
     Parameters
     ----------
-    data : mapping or pandas.DataFrame
-        Column name to 1-D array.
+    data : mapping or DataFrame
+        Column name to 1-D array, or a DataFrame (:func:`frame_columns`).
     label : str
         How messages name the run (``"run 2 (OX-)"``).
     columns : mapping of str to str, optional
         Column names by role.
+    extras : sequence of str, optional
+        The extra columns to read (each must be present); default: every
+        column that is not a role's.
 
     Returns
     -------
     arrays : list of ndarray
-        Time (s), temperature, x, y, z, then every extra column.
+        Time (s), temperature, x, y, z, then the extra columns.
     extra_names : list of str
-        Names of the extra columns, in the data's order.
+        Names of the extra columns, in the data's order (or in ``extras``' order).
 
     Raises
     ------
@@ -93,26 +181,20 @@ def run_table(
         ``.column`` the 1-based column).
     """
     names = column_roles(columns)
-    keys = list(data.columns) if hasattr(data, "columns") else list(data)
-    shown = [str(k) for k in keys]
-    seen: set[str] = set()
-    for name in shown:
-        if name in seen:
-            raise SessionFormatError(
-                f"{label}: column name {name!r} appears twice; every column needs a distinct name"
-            )
-        seen.add(name)
+    shown, raw = frame_columns(data, label)
     wanted = [names[r] for r in _ROLES]
-    missing = [w for w in wanted if w not in seen]
+    if extras is None:
+        extra_names = [n for n in shown if n not in wanted]
+    else:
+        extra_names = [n for n in extras if n not in wanted]
+    missing = [w for w in wanted + extra_names if w not in shown]
     if missing:
         raise SessionFormatError(
             f"{label}: missing column(s) {', '.join(missing)}; found {', '.join(shown)}"
         )
-    by_name = dict(zip(shown, keys, strict=True))
-    extra_names = [n for n in shown if n not in wanted]
     order = wanted + extra_names
     arrays = [
-        _column(data[by_name[n]], label, n, shown.index(n) + 1, is_time=(n == names["time"]))
+        _column(raw[shown.index(n)], label, n, shown.index(n) + 1, is_time=(n == names["time"]))
         for n in order
     ]
     n = arrays[0].shape[0]

@@ -6,7 +6,8 @@ holds the model terms (:mod:`accelcore.model`), their fitted coefficients, which
 them were estimated and their covariance. :class:`Compensator` turns raw output
 back into acceleration in g (the 3×3 model solved per sample in Rust), streaming.
 :meth:`Calibration.save` / :meth:`Calibration.load` write and read the versioned,
-checksummed JSON file.
+checksummed JSON file (its envelope, canonical checksum and schema:
+:mod:`accelcore.result.calibration_file`).
 
 What the data could not identify is said, never invented: with one orientation
 the vertical axis' offset and sensitivity cannot be told apart, so its
@@ -16,8 +17,6 @@ for sessions already in g) and reported in :attr:`Calibration.not_identified`.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -30,16 +29,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from accelcore import datasheets
 from accelcore.constants import STANDARD_GRAVITY
-from accelcore.errors import (
-    AccelcoreError,
-    AccelcoreIOError,
-    CalibrationFileError,
-    InsufficientDataError,
-)
-from accelcore.files import atomic_write, check_input_file, check_outputs
+from accelcore.errors import AccelcoreError, CalibrationFileError, InsufficientDataError
+from accelcore.files import check_outputs
 from accelcore.model import AXES, Basis, TemperaturePower, Term
 from accelcore.result import datasheet
+from accelcore.result.calibration_file import CALIBRATION_FORMAT, read_body, write_body
 from accelcore.result.compensator import Compensator
+from accelcore.result.frame import compensated_frame
 from accelcore.result.summary import AxisSummary
 
 __all__ = [
@@ -50,10 +46,6 @@ __all__ = [
     "Compensator",
     "nominal_sensitivity",
 ]
-
-CALIBRATION_FORMAT = "accelcore-calibration/1"
-#: A calibration file is a few kB; anything this large is not one (it is not read).
-MAX_CALIBRATION_BYTES = 64 << 20
 
 
 def nominal_sensitivity(units: str, sensor: str | None) -> tuple[float, float, float] | None:
@@ -382,6 +374,48 @@ class Calibration:
         """
         return self.compensator(warn_stacklevel=4).push(raw, temp_c, time_s, extras)
 
+    def compensate_frame(
+        self, data: Mapping[str, Any] | Any, *, columns: Mapping[str, str] | None = None
+    ) -> pd.DataFrame:
+        """Compensate a table and return a labelled frame: time, temperature, ``x_g, y_g, z_g``.
+
+        Parameters
+        ----------
+        data : mapping of str to array_like, or DataFrame
+            A mapping of column name to 1-D array, a pandas DataFrame, or any
+            DataFrame :meth:`accelcore.Session.from_arrays` takes (polars,
+            pyarrow, ... through narwhals: ``pip install accelcore[frames]``),
+            with the time (s, or date/times), temperature (°C), x, y, z columns
+            and the extra columns the model reads. Other columns are ignored.
+        columns : mapping of str to str, optional
+            Column names by role (``time``, ``temperature``, ``x``, ``y``,
+            ``z``), defaults ``time_s``, ``temp_c``, ``x``, ``y``, ``z``, as in
+            :meth:`accelcore.Session.from_arrays`.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The time column (as given when date/times, else in s) and the
+            temperature column under their own names, then the acceleration in
+            g as ``x_g``, ``y_g``, ``z_g``; a pandas input's index is kept.
+            Rows with non-finite input are NaN.
+
+        Raises
+        ------
+        accelcore.AccelcoreError
+            A column is missing or a cell is not a number (naming the column
+            and the row), as :meth:`accelcore.Session.from_arrays` raises.
+
+        Warns
+        -----
+        TemperatureRangeWarning
+            When a temperature lies outside :attr:`temperature_range_c`.
+        """
+        extras = sorted(
+            {t.basis.column for m in self.axes.values() for t in m.terms if t.basis.column}
+        )
+        return compensated_frame(self.compensator(warn_stacklevel=5), data, columns, extras)
+
     def compensator(self, *, warn_stacklevel: int = 3) -> Compensator:
         """Return a streaming compensator for logs larger than memory.
 
@@ -440,8 +474,10 @@ class Calibration:
         """Write a versioned JSON file (atomically: temporary name, then rename).
 
         Floats are written with Python's shortest round-trip repr, so :meth:`load`
-        gives back exactly the same numbers. A SHA-256 checksum of the body
-        detects corruption.
+        gives back exactly the same numbers (a non-finite one as null, read back
+        as NaN). The checksum is the SHA-256 of the body's RFC 8785 canonical
+        JSON bytes: reformatting the file keeps it valid, changing a number
+        does not (:mod:`accelcore.result.calibration_file`).
 
         Raises
         ------
@@ -453,10 +489,7 @@ class Calibration:
         _, files = self.file_digests()
         if folder:
             check_outputs([Path(folder) / name for name in files], [path])
-        body = self.to_dict()
-        text = json.dumps(body, sort_keys=True, allow_nan=True)
-        doc = {"body": body, "sha256": hashlib.sha256(text.encode()).hexdigest()}
-        atomic_write(path, json.dumps(doc, indent=1, sort_keys=True, allow_nan=True))
+        write_body(path, self.to_dict())
 
     @classmethod
     def load(
@@ -478,33 +511,7 @@ class Calibration:
             Missing, not a regular file (a FIFO, a folder) or over 64 MiB.
         """
         where = str(path)
-        check_input_file(path, "calibration file", max_bytes=MAX_CALIBRATION_BYTES)
-        try:
-            data = Path(path).read_bytes()
-        except OSError as exc:
-            raise AccelcoreIOError(
-                f"{where}: cannot read calibration file: {exc.strerror}"
-            ) from exc
-        try:
-            doc = json.loads(data.decode("utf-8"))
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise CalibrationFileError(
-                f"{where}: not a calibration file (truncated or corrupted JSON: {exc})"
-            ) from exc
-        if not isinstance(doc, dict) or "body" not in doc or "sha256" not in doc:
-            raise CalibrationFileError(f"{where}: not an accelcore calibration file")
-        body = doc["body"]
-        fmt = body.get("format") if isinstance(body, dict) else None
-        if fmt != CALIBRATION_FORMAT:
-            raise CalibrationFileError(
-                f"{where}: format {fmt!r} is not supported; expected {CALIBRATION_FORMAT!r}"
-            )
-        text = json.dumps(body, sort_keys=True, allow_nan=True)
-        if hashlib.sha256(text.encode()).hexdigest() != doc["sha256"]:
-            raise CalibrationFileError(
-                f"{where}: checksum mismatch: the file was modified or "
-                "corrupted after it was written"
-            )
+        body = read_body(path)
         if sensor is not None and (body.get("sensor") or "").lower() != sensor.lower():
             raise CalibrationFileError(
                 f"{where}: calibration is for sensor {body.get('sensor')!r}, not {sensor!r}"

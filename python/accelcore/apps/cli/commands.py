@@ -32,6 +32,7 @@ from accelcore.apps.cli.inputs import (
     open_session,
     session_inputs,
 )
+from accelcore.apps.progress import Progress
 from accelcore.errors import AccelcoreError
 from accelcore.files import check_outputs
 from accelcore.input.quality import check_session
@@ -68,11 +69,15 @@ def cmd_calibrate(args: argparse.Namespace, out: TextIO) -> int:
     if not args.window[0] < args.window[1]:
         raise UsageError(f"--window LO HI needs LO < HI, got {args.window[0]:g} {args.window[1]:g}")
     guard(session_inputs(args.session), [args.save, args.json])
-    session = open_session(args.session, cache=not args.no_cache, instance=args.instance)
-    quality = _check_quality(session)
-    cal = accelcore.calibrate(
-        session, args.method, t_ref_c=args.t_ref, window_c=(args.window[0], args.window[1])
-    )
+    with Progress(3, enabled=not args.quiet) as bar:
+        bar.step("reading")
+        session = open_session(args.session, cache=not args.no_cache, instance=args.instance)
+        bar.step("checking the data")
+        quality = _check_quality(session)
+        bar.step("calibrating")
+        cal = accelcore.calibrate(
+            session, args.method, t_ref_c=args.t_ref, window_c=(args.window[0], args.window[1])
+        )
     text, records = datasheet_section(cal)
     if args.save:
         cal.save(args.save)
@@ -123,9 +128,13 @@ def cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
     except ImportError as exc:
         raise UsageError(f"diagnosis is not available in this installation ({exc})") from exc
     guard(session_inputs(args.session), [args.json])
-    session = open_session(args.session, cache=not args.no_cache, instance=args.instance)
-    quality = _check_quality(session)
-    result = diagnosis.diagnose(session)
+    with Progress(3, enabled=not args.quiet) as bar:
+        bar.step("reading")
+        session = open_session(args.session, cache=not args.no_cache, instance=args.instance)
+        bar.step("checking the data")
+        quality = _check_quality(session)
+        bar.step("diagnosing")
+        result = diagnosis.diagnose(session)
     if args.json:
         body = {
             "session": str(args.session),
@@ -187,10 +196,15 @@ def cmd_report(args: argparse.Namespace, out: TextIO) -> int:
         check_outputs(fleet, [page_file])
     try:
         if is_bulk_output(src):
-            page = fleet_report(src, args.output)
+            with Progress(1, enabled=not args.quiet) as bar:
+                bar.step("fleet report")
+                page = fleet_report(src, args.output)
         elif session_input:
-            session = open_session(src, cache=not args.no_cache, instance=args.instance)
-            page = session_report(session, args.output)
+            with Progress(2, enabled=not args.quiet) as bar:
+                bar.step("reading")
+                session = open_session(src, cache=not args.no_cache, instance=args.instance)
+                bar.step("calibrating, diagnosing, plotting")
+                page = session_report(session, args.output)
         elif not src.is_dir():
             raise CliDataError(f"{src}: no such folder")
         else:

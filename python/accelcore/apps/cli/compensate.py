@@ -2,9 +2,10 @@
 
 The raw log is a delimited text file (read in chunks), a Parquet file (``pip
 install accelcore[parquet]``, read in record batches) or a flight log (PX4
-``.ulg``, ArduPilot ``.bin``: one IMU instance, every sample). The output CSV holds
-the time and temperature columns, then ``x_g``, ``y_g``, ``z_g``; it is written as
-it goes and replaced atomically at the end.
+``.ulg``, ArduPilot ``.bin``: one IMU instance, every sample). The output holds
+the time and temperature columns, then ``x_g``, ``y_g``, ``z_g``: a CSV file, or
+a Parquet file when its name ends in ``.parquet`` (``pip install
+accelcore[parquet]``); it is written as it goes and replaced atomically at the end.
 
 Part of the applications room.
 """
@@ -18,7 +19,7 @@ import sys
 import warnings
 from collections.abc import Generator, Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import Any, TextIO
+from typing import IO, Any, TextIO
 
 import numpy as np
 import pandas as pd
@@ -26,6 +27,7 @@ from numpy.typing import NDArray
 
 from accelcore.apps.cli.documents import require_folder
 from accelcore.apps.cli.inputs import CliDataError, UsageError, guard, need, open_session
+from accelcore.apps.progress import Progress
 from accelcore.constants import DEFAULT_COLUMNS as _DEFAULT_COLUMNS
 from accelcore.constants import DELIMITERS as _DELIMITERS
 from accelcore.constants import TIME_UNITS as _TIME_UNITS
@@ -189,6 +191,39 @@ def _flight_chunks(
     )
 
 
+class _CsvSink:
+    """Blocks of float columns as CSV lines."""
+
+    def __init__(self, fh: IO[bytes], names: Sequence[str]) -> None:
+        self.fh = fh
+        fh.write((",".join(names) + "\n").encode("utf-8"))
+
+    def write(self, block: NDArray[np.float64]) -> None:
+        np.savetxt(self.fh, block, delimiter=",", fmt=["%.10g", "%.6g"] + ["%.7f"] * 3)
+
+    def close(self) -> None:
+        """Nothing to finish: every line is written."""
+
+
+class _ParquetSink:
+    """Blocks of float columns as the row groups of one Parquet file (float64, exact)."""
+
+    def __init__(self, pq: Any, fh: IO[bytes], names: Sequence[str]) -> None:
+        import pyarrow as pa  # present: the caller imported pyarrow.parquet
+
+        self.pa = pa
+        self.schema = pa.schema([(n, pa.float64()) for n in names])
+        self.writer = pq.ParquetWriter(fh, self.schema)
+
+    def write(self, block: NDArray[np.float64]) -> None:
+        arrays = [self.pa.array(block[:, i]) for i in range(block.shape[1])]
+        self.writer.write_table(self.pa.Table.from_arrays(arrays, schema=self.schema))
+
+    def close(self) -> None:
+        """Write the Parquet footer."""
+        self.writer.close()
+
+
 def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
     """``accelcore compensate``: a raw log of any size into acceleration in g, in chunks."""
     source = Path(args.input)
@@ -206,6 +241,9 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
             f"{source} is a flight log: its columns are known; drop --session, --column, "
             "--delimiter and --time-unit"
         )
+    pq = None
+    if Path(args.output).suffix.lower() == ".parquet":
+        pq = need("pyarrow.parquet", "parquet", f"writing {args.output} (Parquet)")
     names, delimiter, time_unit = (_FLIGHT_COLUMNS, ",", "s") if flight else _layout(args)
     check_input_file(source, "log")  # a FIFO would block, a device never end
     cal = Calibration.load(args.calibration)
@@ -229,8 +267,9 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
     n_rows = n_out_of_range = n_nan = 0
     out_names = [names["time"], names["temperature"], "x_g", "y_g", "z_g"]
     # Written chunk by chunk (the log may not fit in memory), replaced atomically at the end.
-    with contextlib.closing(chunks), atomic_open(target) as fh:
-        fh.write((",".join(out_names) + "\n").encode("utf-8"))
+    bar = Progress(None, what="rows compensated", enabled=not args.quiet)
+    with contextlib.closing(chunks), contextlib.closing(bar), atomic_open(target) as fh:
+        sink = _CsvSink(fh, out_names) if pq is None else _ParquetSink(pq, fh, out_names)
         try:
             for frame, g, n_out in _compensate_chunks(
                 cal, chunks, names, _TIME_UNITS[time_unit], extra_names
@@ -238,8 +277,9 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
                 block = np.column_stack(
                     [frame[names["time"]].to_numpy(), frame[names["temperature"]].to_numpy(), g]
                 )
-                np.savetxt(fh, block, delimiter=",", fmt=["%.10g", "%.6g"] + ["%.7f"] * 3)
+                sink.write(block)
                 n_rows += len(frame)
+                bar.advance(len(frame))
                 n_out_of_range += n_out
                 n_nan += int(np.count_nonzero(~np.isfinite(g).all(axis=1)))
         except ValueError as exc:
@@ -248,6 +288,7 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
             raise _bad_cell(source, _DELIMITERS[delimiter], needed) or CliDataError(
                 f"{source}: {exc}"
             ) from exc
+        sink.close()
     print(f"compensated {n_rows} rows of {source} into {target} (columns x_g, y_g, z_g)", file=out)
     if n_nan:
         print(f"warning: {n_nan} rows had non-finite input and are NaN", file=sys.stderr)

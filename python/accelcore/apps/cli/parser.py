@@ -30,7 +30,10 @@ _EPILOGS = {
       --column temperature=die_temp --column time=t_ms --time-unit ms
   accelcore compensate px4-imu1.cal.json flight.ulg --instance 1 -o flight_g.csv
 
-  The output holds the time and temperature columns, then x_g, y_g, z_g.""",
+  accelcore compensate adxl335.cal.json flight_log.csv -o flight_log_g.parquet
+
+  The output holds the time and temperature columns, then x_g, y_g, z_g: CSV,
+  or Parquet when OUT ends in .parquet (pip install accelcore[parquet]).""",
     "export": """examples:
   accelcore export adxl335.cal.json --to px4 --device-id 2621474 -o tc_accel.params
   accelcore export adxl335.cal.json --to ardupilot --imu 1 -o tcal.param
@@ -152,7 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     def add(name: str, help_text: str, **kw: Any) -> argparse.ArgumentParser:
-        return sub.add_parser(
+        p = sub.add_parser(
             name,
             help=help_text,
             description=help_text,
@@ -160,6 +163,9 @@ def build_parser() -> argparse.ArgumentParser:
             formatter_class=fmt,
             **kw,
         )
+        if name != "bench":  # every argument after 'bench' is the bench runner's
+            p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+        return p
 
     p = add("calibrate", "calibrate a session: summary and datasheet comparison")
     p.add_argument(
@@ -191,7 +197,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="raw log: delimited text or .parquet (any size: read in chunks), or a flight log "
         "(.ulg, .bin)",
     )
-    p.add_argument("-o", "--output", required=True, metavar="OUT.csv", help="output CSV")
+    p.add_argument(
+        "-o", "--output", required=True, metavar="OUT", help="output CSV, or .parquet (Parquet)"
+    )
     p.add_argument(
         "--session",
         metavar="SESSION",
@@ -251,7 +259,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask cluster (tcp://HOST:PORT)")
     p.add_argument("--no-diagnose", action="store_true", help="calibrate only")
     p.add_argument("--force", action="store_true", help="redo sessions that are up to date")
-    p.add_argument("--quiet", action="store_true", help="no progress output")
     _add_instance(p)
     _add_no_cache(p)
     p.set_defaults(func=commands.cmd_bulk, data_path="archive")
