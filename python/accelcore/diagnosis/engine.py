@@ -532,7 +532,7 @@ _Key = tuple[Basis, str | None]
 _CatalogueName = tuple[str, float | str] | None
 
 #: Rows a coarse search trial (:meth:`Engine.cv_coarse`) aims at.
-COARSE_ROWS = 8_000
+COARSE_ROWS = 4_000
 
 #: Fewest held-out blocks a part (run x leg) is cut into when it holds the samples.
 MIN_BLOCKS_PER_PART = 3
