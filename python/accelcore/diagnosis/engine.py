@@ -152,6 +152,8 @@ class Engine:
             [np.broadcast_to(g, (s, 3)) for g, s in zip(grav, sizes, strict=True)]
         )
         self.output = np.vstack(out)
+        #: Distinct gravity values each axis sees (2 or more: offset and gain told apart).
+        self.gravity_values = tuple(int(np.unique(self.gravity[:, i]).size) for i in range(3))
         self.temperature = np.concatenate([f.temperature_c for f in feats])
         self.elapsed_s = np.concatenate([np.asarray(f.time_s) for f in feats])
         self.rate = np.concatenate(rates)
@@ -415,7 +417,7 @@ class Engine:
         y, w = self.y[axis][rows], self.w[rows]
         if not keys:
             return float((w * y * y).sum())
-        x = np.column_stack([self._key_column(k)[rows] for k in keys])
+        x = np.column_stack([self._key_column(k, rows) for k in keys])
         own = BlockedLeastSquares(x.shape[1], int(self.block_start.size))
         own.push(x, y, self.sample_block[rows], w)
         fit = own.cross_validate(self.block_fold)
@@ -442,10 +444,15 @@ class Engine:
             if lag not in self._wide:
                 self._push_catalogue(lag)
 
-    def _key_column(self, key: _Key) -> FloatArray:
+    def _key_column(self, key: _Key, rows: slice | None = None) -> FloatArray:
         basis, source = key
         col = self.basis(basis)
-        return col if source is None else col * self.gravity[:, AXES.index(source)]
+        if rows is not None:
+            col = col[rows]
+        if source is None:
+            return col
+        g = self.gravity[:, AXES.index(source)]
+        return col * (g if rows is None else g[rows])
 
     def _keys(self, axis: str, terms: Sequence[Term]) -> tuple[_Key, ...]:
         """Column keys of the free terms of an axis model, in term order."""

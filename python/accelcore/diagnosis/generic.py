@@ -166,7 +166,7 @@ def generic_variants(
         if isinstance(t.basis, Hinge)
     }
     sources: list[str | None] = [None]
-    sources += [b for b in AXES if np.unique(eng.gravity[:, AXES.index(b)]).size >= 2]
+    sources += [b for b in AXES if eng.gravity_values[AXES.index(b)] >= 2]
     out: list[tuple[str, str, Spec, tuple[str, Spec] | None]] = []
     for name, inner in observables(eng):
         if name in skip:

@@ -85,7 +85,7 @@ def variants(
     if family == "smooth":
         return [v[:3] for v in generic_variants(axis, spec, eng, skip)]
     a_i = AXES.index(axis)
-    own_values = np.unique(eng.gravity[:, a_i]).size
+    own_values = eng.gravity_values[a_i]
     out: list[tuple[str, str, Spec]] = []
     if family == "offset_curvature":
         out = [
@@ -98,9 +98,7 @@ def variants(
             for k in range(max(2, spec.gain_order + 1), max_order + 1)
         ]
     elif family == "misalignment" and not spec.cross:
-        sources = tuple(
-            b for b in AXES if b != axis and np.unique(eng.gravity[:, AXES.index(b)]).size >= 2
-        )
+        sources = tuple(b for b in AXES if b != axis and eng.gravity_values[AXES.index(b)] >= 2)
         if sources:
             out = [(family, "from " + "+".join(sources), replace(spec, cross=sources))]
     elif family == "drift" and not spec.drift:
@@ -274,10 +272,10 @@ def confounding(
             sig["thermal_lag"] = eng.basis(LaggedTemperaturePower(_CONFOUND_TAU_S, 1)) - eng.basis(
                 TemperaturePower(1)
             )
-        if moves and np.unique(eng.gravity[:, a_i]).size >= 2:
+        if moves and eng.gravity_values[a_i] >= 2:
             sig["sensitivity_curvature"] = eng.basis(TemperaturePower(2)) * eng.gravity[:, a_i]
         for b in AXES:
-            if b != a and np.unique(eng.gravity[:, AXES.index(b)]).size >= 2:
+            if b != a and eng.gravity_values[AXES.index(b)] >= 2:
                 sig[f"misalignment (gravity on {b})"] = eng.gravity[:, AXES.index(b)].copy()
         for e in extras:
             sig[f"extra:{e}"] = eng.basis(Extra(e))
