@@ -307,7 +307,7 @@ def plot_raw_vs_decimated(
     calibration: Calibration | None = None,
     raw: bool = True,
     bin_width_c: float = 0.5,
-    max_raw_points: int = MAX_POINTS,
+    max_raw_points: int = 20_000,
 ) -> Axes:
     """Plot one axis of one run against temperature before and after averaging (Figure 4).
 
@@ -335,9 +335,9 @@ def plot_raw_vs_decimated(
         Draw the raw samples (in-memory sessions have none to re-read).
     bin_width_c : float, default 0.5
         Temperature bin width, °C.
-    max_raw_points : int, default :data:`MAX_POINTS`
+    max_raw_points : int, default 20000
         Raw samples drawn at most (every k-th sample); the decimated points
-        are thinned to the same number.
+        are thinned to the same number. The report passes :data:`MAX_POINTS`.
 
     Returns
     -------
@@ -354,7 +354,7 @@ def plot_raw_vs_decimated(
     data = _read_raw(session, r, axis) if raw else None
     if data is not None:
         k = stride(data[0].shape[0], max_raw_points)
-        shown = f"1 in {k} shown" if k > 1 else "all shown"
+        rate = f"{session.rate_hz:g} Hz" + (f", every {k}th sample" if k > 1 else "")
         ax.plot(
             data[0][::k],
             data[1][::k],
@@ -362,7 +362,7 @@ def plot_raw_vs_decimated(
             ms=2.0,
             color="0.62",
             zorder=1,
-            label=f"raw, {session.rate_hz:g} Hz ({shown})",
+            label=f"raw ({rate})",
         )
     block_hz = session.rate_hz / session.decimation_factor
     k = stride(r.temperature_c.shape[0], max_raw_points)
@@ -373,7 +373,7 @@ def plot_raw_vs_decimated(
         ms=2.5,
         color="tab:blue",
         zorder=2,
-        label=f"{block_hz:g} Hz averages of {session.decimation_factor}",
+        label=f"decimated ({block_hz:g} Hz)",
     )
     if stats is not None:
         keep = stats.count > 0
@@ -398,14 +398,26 @@ def plot_raw_vs_decimated(
                 y = y + g * _steady_state(m, "gain", b, t, calibration.t_ref_c)
         if np.all(np.isfinite(y)):
             ax.plot(
-                t, y, "-", color="black", lw=1.2, zorder=4, label=f"model ({calibration.method})"
+                t,
+                y,
+                "-",
+                color="black",
+                lw=1.2,
+                zorder=4,
+                label=f"calibration ({calibration.method})",
             )
     elif stats is not None and np.count_nonzero(stats.count > 0) >= 2:
         keep = stats.count > 0
         slope, intercept = np.polyfit(stats.temperature_c[keep], stats.mean[keep, a], 1)
         t = np.array([stats.temperature_c[keep].min(), stats.temperature_c[keep].max()])
         ax.plot(
-            t, intercept + slope * t, "-", color="black", lw=1.2, zorder=4, label="line of bins"
+            t,
+            intercept + slope * t,
+            "-",
+            color="black",
+            lw=1.2,
+            zorder=4,
+            label="linear fit of bins",
         )
     ax.set_xlabel("temperature (°C)")
     ax.set_ylabel(f"{axis} output ({units})")
@@ -493,6 +505,9 @@ def _paired(
             target.set_title(f"{calibration.sensor or 'sensor'} {a.upper()}")
         if target.get_lines():
             target.legend(loc="best", fontsize="small")
+        elif not shared:  # nothing to read off the axes: no made-up 0…1 scale
+            target.set_xticks([])
+            target.set_yticks([])
     return targets
 
 

@@ -71,6 +71,7 @@ pre { background: #f7f7f7; padding: 0.5em; white-space: pre-wrap; }
   body { max-width: none; margin: 0; padding: 0; font-size: 10pt; }
   nav { display: none; }
   .scroll { overflow: visible; }
+  table { font-size: 8pt; } th, td { padding: 1px 3px; }
   h2, h3 { break-after: avoid; page-break-after: avoid; }
   table, figure, tr, ul { break-inside: avoid; page-break-inside: avoid; }
   thead { display: table-header-group; }

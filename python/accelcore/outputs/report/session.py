@@ -48,18 +48,20 @@ __all__ = ["session_report"]
 def _figure4(session: Session, cal: Calibration) -> str:
     picks: list[tuple[str | None, str | None]] = []
     orientations = set(session.orientations)
-    for a in AXES:
+    for name in AXES:
         for sign in "+-":
-            o = f"O{a.upper()}{sign}"
-            if o in orientations:
-                picks.append((o, a))
+            label = f"O{name.upper()}{sign}"
+            if label in orientations:
+                picks.append((label, name))
                 break
     n = max(len(picks), 1)
     fig = new_figure(4.6 * n, 6.6, columns=n, rows=2, hspace=0.25)
     axs = fig.subplots(2, n, squeeze=False, sharex="col", height_ratios=[3, 2])
     for col, (o, a) in enumerate(picks or [(None, None)]):
         top, bottom = axs[0][col], axs[1][col]
-        plots.plot_raw_vs_decimated(session, o, a, ax=top, calibration=cal)
+        plots.plot_raw_vs_decimated(
+            session, o, a, ax=top, calibration=cal, max_raw_points=plots.MAX_POINTS
+        )
         plots.plot_averaging(session, o, a, ax=bottom, calibration=cal)
         top.set_xlabel("")
         top.tick_params(labelbottom=False)
