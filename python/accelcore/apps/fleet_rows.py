@@ -3,7 +3,8 @@
 :func:`fleet_rows` turns a session's :class:`~accelcore.result.calibration.Calibration`,
 its :class:`~accelcore.diagnosis.Diagnosis` and its data-quality findings
 (:func:`accelcore.input.quality.check_session`) into the rows of ``fleet.csv``
-(columns :data:`accelcore.outputs.report.fleet.FLEET_COLUMNS`).
+(columns :data:`accelcore.outputs.report.fleet.FLEET_COLUMNS`), the lab's
+record (the ``[lab]`` table of ``session.toml``) in the ``lab_*`` columns.
 :func:`warnings_cell` is the short form of the findings shown in the ``warnings``
 column, so a suspect session stands out in the table. Part of the apps room.
 """
@@ -16,6 +17,7 @@ from typing import Any
 
 from accelcore import datasheets
 from accelcore.diagnosis import Diagnosis
+from accelcore.input.format import LAB_KEYS
 from accelcore.input.quality import QualityIssue
 from accelcore.outputs.report.fleet import NO_WARNINGS
 from accelcore.result.calibration import Calibration
@@ -97,7 +99,9 @@ def fleet_rows(
     Returns
     -------
     list of dict
-        Keyed by :data:`accelcore.outputs.report.fleet.FLEET_COLUMNS`.
+        Keyed by :data:`accelcore.outputs.report.fleet.FLEET_COLUMNS`; a
+        ``lab_*`` field the session's ``[lab]`` table does not give is NaN
+        (missing, as an empty CSV cell reads back).
     """
     sheet = None
     if cal.sensor:
@@ -107,6 +111,8 @@ def fleet_rows(
             sheet = None
     effects = ";".join(diag.effects) if diag is not None else ""
     warnings = warnings_cell(issues)
+    given = cal.provenance.get("lab") or {}
+    lab = {f"lab_{k}": (str(given[k]) if given.get(k) else math.nan) for k in LAB_KEYS}
     rows = []
     for axis in cal.axes:
         s = cal.axis(axis)
@@ -148,6 +154,7 @@ def fleet_rows(
                     diag.steps[-1].rms_out_axis_mg[axis] if diag is not None else math.nan
                 ),
                 "warnings": warnings,
+                **lab,
             }
         )
     return rows

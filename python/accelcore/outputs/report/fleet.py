@@ -1,10 +1,13 @@
 """The HTML report of a bulk output (a fleet): :func:`fleet_report`, and the fleet table's columns.
 
 :func:`fleet_report` writes ``index.html`` for a folder written by
-:func:`accelcore.apps.bulk.bulk` (recognised by its ``fleet.csv``): per sensor type
-and temperature coefficient, the distribution across parts per axis against
-the datasheet limits, then the fleet table (the sessions with data-quality
-warnings named above it) and the failures. The columns of
+:func:`accelcore.apps.bulk.bulk` (recognised by its ``fleet.csv``): every part
+with pass or fail against the datasheet (and which checks failed) and its lab
+record, per sensor type and temperature coefficient the parts per axis against
+the datasheet limits (a strip plot of every part for small fleets, else a
+histogram; :mod:`~accelcore.outputs.report.fleet_plots`), then the per-axis
+values (the sessions with data-quality warnings named above them) and the
+failures. The columns of
 ``fleet.csv`` and ``failures.csv`` are defined here, where they are read; the
 bulk application writes them. Part of the outputs room.
 """
@@ -15,20 +18,20 @@ import functools
 import hashlib
 import os
 from pathlib import Path
+from typing import Any
 
-import numpy as np
 import pandas as pd
 
-from accelcore import datasheets
 from accelcore._accelcore import __version__
-from accelcore.constants import AXES
+from accelcore.input.format import LAB_KEYS
+from accelcore.outputs.report.fleet_plots import STRIP_MAX, coefficient_figure
 from accelcore.outputs.report.html import (
     escape,
-    figure_html,
     guarded,
     new_figure,
     note,
     page,
+    spec_class,
     table,
     write_page,
 )
@@ -66,6 +69,7 @@ FLEET_COLUMNS = (
     "heldout_rms_mg_before",
     "heldout_rms_mg_after",
     "warnings",
+    *(f"lab_{k}" for k in LAB_KEYS),
 )
 #: The ``warnings`` cell of a session without data-quality findings (an empty
 #: cell would read back as missing, as if the session had not been checked).
@@ -83,64 +87,6 @@ FLEET_PARAMETERS: tuple[tuple[str, str, str], ...] = (
 def is_bulk_output(path: str | os.PathLike[str]) -> bool:
     """Tell whether ``path`` is a folder written by ``accelcore bulk`` (has fleet.csv)."""
     return (Path(path) / "fleet.csv").is_file()
-
-
-def _limits(sensor: str, parameter: str, axis: str) -> tuple[float | None, float | None] | None:
-    try:
-        lim = datasheets.load(sensor).limits(parameter, axis)
-    except (KeyError, ValueError):
-        return None
-    return None if lim is None else (lim.min, lim.max)
-
-
-def _distribution_figure(
-    sensor: str, part: pd.DataFrame, column: str, label: str, unit: str
-) -> str:
-    from matplotlib.ticker import MaxNLocator  # optional: the [plot] extra
-
-    fig = new_figure(13.0, 3.4)
-    axs = fig.subplots(1, len(AXES), squeeze=False)[0]
-    rng = np.random.default_rng(0)  # fixed jitter: the page is reproducible
-    for ax, a in zip(axs, AXES, strict=True):
-        values = pd.to_numeric(part.loc[part["axis"] == a, column], errors="coerce").to_numpy(
-            dtype=np.float64
-        )
-        values = values[np.isfinite(values)]
-        lim = _limits(sensor, column, a)
-        bounds = [v for v in (lim or (None, None)) if v is not None]
-        if values.size:
-            lo = min([float(values.min()), *bounds])
-            hi = max([float(values.max()), *bounds])
-            pad = 0.05 * (hi - lo) if hi > lo else max(abs(hi), 1e-6) * 0.1
-            bins = np.linspace(lo - pad, hi + pad, 41)
-            ax.hist(values, bins=bins, color="tab:blue", alpha=0.6, label=f"{values.size} parts")
-            top = ax.get_ylim()[1]
-            jitter = rng.uniform(0.05, 0.25, values.size) * top
-            ax.plot(values, jitter, "o", ms=4, mfc="none", color="black", label="each part")
-            ax.yaxis.set_major_locator(MaxNLocator(integer=True))
-            ax.set_xlim(lo - pad, hi + pad)
-        else:
-            ax.text(0.5, 0.5, "no values", transform=ax.transAxes, ha="center")
-        if lim is not None:
-            for k, v in enumerate(bounds):
-                ax.axvline(
-                    v, color="tab:red", ls="--", lw=1.2, label="datasheet limit" if k == 0 else None
-                )
-        ax.xaxis.set_major_locator(MaxNLocator(5))
-        ax.set_title(f"{sensor} {a.upper()}")
-        ax.set_xlabel(f"{label} ({unit})")
-        ax.set_ylabel("parts")
-        ax.legend(loc="best", fontsize="small")
-    lim_text = (
-        "datasheet limits dashed red"
-        if any(_limits(sensor, column, a) for a in AXES)
-        else "the datasheet gives no limit"
-    )
-    return figure_html(
-        fig,
-        f"{sensor}: {label} across parts per axis ({lim_text}).",
-        f"{sensor} {label} distribution",
-    )
 
 
 def _read_csv(path: Path) -> pd.DataFrame:
@@ -190,10 +136,17 @@ def fleet_report(
     failures = _read_csv(src / "failures.csv") if (src / "failures.csv").is_file() else None
     n_sessions = fleet["session"].nunique()
     n_failed = 0 if failures is None or failures.empty else len(failures)
-    sections = [
-        f"<h1>Fleet report — {escape(src.resolve().name)}</h1>",
+    lead = (
         f"<p>{n_sessions} session(s) calibrated, {len(fleet)} axis row(s), "
-        f"{n_failed} failed session(s). Folder: <code>{escape(src.resolve())}</code></p>",
+        f"{n_failed} failed session(s). Folder: <code>{escape(src.resolve())}</code></p>"
+    )
+    sections = [
+        '<section id="parts"><h2>Parts: pass or fail</h2>',
+        guarded("Parts table", lambda: _parts_section(fleet, failures)),
+        "</section>",
+        '<section id="lab"><h2>Lab record</h2>',
+        _lab_section(fleet),
+        "</section>",
         '<section id="fleet-plots"><h2>Temperature coefficients across parts</h2>',
     ]
     sensors = sorted({s for s in fleet["sensor"] if s}) if len(fleet) else []
@@ -202,17 +155,15 @@ def fleet_report(
     for sensor in sensors:
         part = fleet[fleet["sensor"] == sensor]
         shown = sensor or "unnamed sensor"
+        strip = part["session"].nunique() < STRIP_MAX
         for column, label, unit in FLEET_PARAMETERS:
-            sections.append(
-                guarded(
-                    f"{shown} {label} plot",
-                    functools.partial(_distribution_figure, shown, part, column, label, unit),
-                )
+            draw = functools.partial(
+                coefficient_figure, shown, part, column, label, unit, strip=strip
             )
+            sections.append(guarded(f"{shown} {label} plot", draw))
     if not len(fleet):
         sections.append(note("The fleet table is empty: no session was calibrated."))
     sections.append("</section>")
-    # In/out of spec counts per sensor and parameter.
     spec_cols = [c for c in FLEET_COLUMNS if c.endswith("_in_spec") and c in fleet.columns]
     counts = []
     for sensor in sensors:
@@ -222,7 +173,7 @@ def fleet_report(
             counts.append(
                 {
                     "sensor": sensor or "unnamed",
-                    "parameter": c.removesuffix("_in_spec"),
+                    "parameter": _CHECKS.get(c, c),
                     "in spec": int((v == "true").sum()),
                     "out of spec": int((v == "false").sum()),
                     "no limit / n.i.": int(((v != "true") & (v != "false")).sum()),
@@ -234,26 +185,23 @@ def fleet_report(
         if counts
         else note("No rows."),
         "</section>",
-        '<section id="fleet-table"><h2>Fleet table</h2>',
+        '<section id="fleet-table"><h2>Values per part and axis</h2>',
     ]
-    cols = [str(c) for c in fleet.columns]
-    text = ("session", "serial", "sensor", "units", "axis", "not_identified", "effects", "warnings")
-    numeric = [c for c in cols if c not in text and c not in spec_cols]
     if "warnings" in fleet.columns:
         pairs = zip(fleet["session"], fleet["warnings"], strict=True)
         flagged = sorted({s for s, w in pairs if _flagged(w)})
         sections.append(
             "<p>"
             + (
-                f"{len(flagged)} session(s) with data-quality warnings (column "
-                f"<code>warnings</code>): {escape(', '.join(flagged))}"
+                f"{len(flagged)} session(s) with data-quality warnings (listed under Parts): "
+                f"{escape(', '.join(flagged))}"
                 if flagged
                 else "No session has a data-quality warning."
             )
             + "</p>"
         )
     sections += [
-        table(cols, fleet.to_dict(orient="records"), numeric=numeric, spec=spec_cols, cls="fleet"),
+        guarded("Fleet table", lambda: _values_table(fleet)),
         "</section>",
         '<section id="failures"><h2>Failures</h2>',
     ]
@@ -263,7 +211,11 @@ def fleet_report(
         sections.append("<p>No session failed.</p>")
     else:
         sections.append(
-            table([str(c) for c in failures.columns], failures.to_dict(orient="records"))
+            table(
+                [str(c) for c in failures.columns],
+                failures.to_dict(orient="records"),
+                wide=["reason"],
+            )
         )
     sections += [
         "</section>",
@@ -273,7 +225,157 @@ def fleet_report(
         "</section>",
     ]
     target = Path(out_dir) if out_dir is not None else src
-    return write_page(target, page(f"accelcore fleet report: {src.resolve().name}", sections))
+    name = src.resolve().name
+    return write_page(
+        target,
+        page(
+            f"accelcore fleet report: {name}",
+            sections,
+            heading=f"Fleet report — {name}",
+            lead=lead,
+            nav=_NAV,
+        ),
+    )
+
+
+#: The navigation bar: section id and link text.
+_NAV = (
+    ("parts", "Parts"),
+    ("lab", "Lab record"),
+    ("fleet-plots", "Coefficients"),
+    ("spec-counts", "Spec counts"),
+    ("fleet-table", "Values"),
+    ("failures", "Failures"),
+    ("provenance", "Provenance"),
+)
+#: Plain name of each datasheet check (in-spec flag column).
+_CHECKS = {
+    "zero_g_offset_in_spec": "zero-g offset",
+    "sensitivity_in_spec": "sensitivity",
+    "offset_tc_in_spec": "offset TC",
+    "sensitivity_tc_in_spec": "sensitivity TC",
+}
+
+
+def _parts_section(fleet: pd.DataFrame, failures: pd.DataFrame | None) -> str:
+    """Every session, one row: pass / fail against the datasheet and the checks that failed."""
+    spec_cols = [c for c in _CHECKS if c in fleet.columns]
+    rows: list[dict[str, Any]] = []
+    for session, part in fleet.groupby("session", sort=True):
+        failed = [
+            f"{axis} {_CHECKS[c]}"
+            for axis, flags in zip(
+                part["axis"], part[spec_cols].to_dict(orient="records"), strict=True
+            )
+            for c in spec_cols
+            if spec_class(flags[c]) == "out"
+        ]
+        checked = any(spec_class(v) for c in spec_cols for v in part[c])
+        first = part.iloc[0]
+        rows.append(
+            {
+                "serial": first.get("serial", ""),
+                "session": session,
+                "sensor": first.get("sensor", ""),
+                "result": "fail" if failed else ("pass" if checked else "no limits"),
+                "flag": "false" if failed else ("true" if checked else ""),
+                "failed": ", ".join(failed) or ("–" if checked else "no datasheet limits"),
+                "warnings": first.get("warnings", ""),
+            }
+        )
+    for r in [] if failures is None or failures.empty else failures.to_dict(orient="records"):
+        rows.append(
+            {
+                "serial": "",
+                "session": r.get("session", ""),
+                "sensor": "",
+                "result": "not calibrated",
+                "flag": "false",
+                "failed": f"{r.get('stage', '')}: {r.get('reason', '')}",
+                "warnings": "",
+            }
+        )
+    n_fail = sum(r["result"] != "pass" for r in rows)
+    head = (
+        f"<p>{len(rows) - n_fail} of {len(rows)} session(s) pass every datasheet check "
+        "(offset, sensitivity and their temperature coefficients, per axis).</p>"
+    )
+    return head + table(
+        ["serial", "session", "sensor", "result", "failed", "warnings"],
+        rows,
+        rename={"failed": "failed checks", "warnings": "data-quality warnings"},
+        flags={"result": "flag"},
+        wide=["failed", "warnings"],
+        cls="parts",
+    )
+
+
+def _lab_section(fleet: pd.DataFrame) -> str:
+    """Render the ``[lab]`` record of every session that has one (the ``lab_*`` columns)."""
+    cols = [f"lab_{k}" for k in LAB_KEYS if f"lab_{k}" in fleet.columns]
+    if not cols or not (fleet[cols] != "").to_numpy().any():
+        return (
+            '<p class="muted">No session has a <code>[lab]</code> table in its '
+            "<code>session.toml</code>.</p>"
+        )
+    firsts = fleet.groupby("session", sort=True).first().reset_index()
+    return table(
+        ["serial", "session", *cols],
+        firsts.to_dict(orient="records"),
+        rename={c: c.removeprefix("lab_").replace("_", " ") for c in cols},
+        wide=["lab_notes"],
+        cls="lab",
+    )
+
+
+def _values_table(fleet: pd.DataFrame) -> str:
+    """Per session and axis: the four parameters ± se, coloured by the datasheet check."""
+    units = fleet["units"].iloc[0] if "units" in fleet.columns and len(fleet) else ""
+    values = {
+        "zero_g_offset": (f"zero-g offset ({units})", "zero_g_offset_in_spec"),
+        "sensitivity": (f"sensitivity ({units}/g)", "sensitivity_in_spec"),
+        "offset_tc_mg_per_c": ("offset TC (mg/°C)", "offset_tc_in_spec"),
+        "sensitivity_tc_pct_per_c": ("sensitivity TC (%/°C)", "sensitivity_tc_in_spec"),
+    }
+    values = {c: v for c, v in values.items() if c in fleet.columns}
+    cols = [
+        c
+        for c in (
+            "session",
+            "axis",
+            *values,
+            "heldout_rms_mg_before",
+            "heldout_rms_mg_after",
+            "not_identified",
+            "effects",
+        )
+        if c in fleet.columns
+    ]
+    text = {"session", "axis", "not_identified", "effects"}
+    rows = []
+    for r in fleet.to_dict(orient="records"):
+        r["not_identified"] = str(r.get("not_identified", "")).replace(";", ", ")
+        r["effects"] = str(r.get("effects", "")).replace(";", ", ")
+        rows.append(r)
+    return (
+        '<p class="muted">Standard errors under each value; green in spec, red out of spec '
+        "(the failed checks are named under Parts). TC: temperature coefficient; held-out: "
+        "RMS error (mg) on held-out runs before and after the diagnosis.</p>"
+        + table(
+            cols,
+            rows,
+            numeric=[c for c in cols if c not in text],
+            rename={c: h for c, (h, _) in values.items()}
+            | {
+                "heldout_rms_mg_before": "held-out before",
+                "heldout_rms_mg_after": "held-out after",
+            },
+            se={c: f"{c}_se" for c in values if f"{c}_se" in fleet.columns},
+            flags={c: f for c, (_, f) in values.items() if f in fleet.columns},
+            wide=["not_identified"],
+            cls="fleet",
+        )
+    )
 
 
 def _flagged(cell: str) -> bool:

@@ -1,17 +1,21 @@
 """The HTML report of one session: :func:`session_report`.
 
-``OUT/index.html`` holds the datasheet comparison (the seed paper's Tables 3/4
-and 5/6, out-of-spec values highlighted), the paper's Figures 4, 6 and 7 for
-this part, the added effects (parameters ± standard error, held-out error per axis
-before and after, what stays unexplained), the diagnosis steps with residual plots
-before and after, the notes and what the data could not identify, and provenance
-(accelcore version, SHA-256 of every input file). Part of the outputs room.
+``OUT/index.html`` holds the calibration summary, the lab's record (the
+``[lab]`` table of ``session.toml``), the datasheet comparison (the seed
+paper's Tables 3/4 and 5/6, out-of-spec values highlighted), the paper's
+Figures 4, 6 and 7 for this part, the added effects (parameters ± standard
+error, held-out error per axis before and after, what stays unexplained), the
+diagnosis steps with residual plots per axis, the notes and what the data
+could not identify, and provenance (accelcore version, digest of every input
+file). Part of the outputs room.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from accelcore import datasheets
 from accelcore._accelcore import __version__
@@ -20,10 +24,13 @@ from accelcore.diagnosis import Diagnosis, diagnose
 from accelcore.diagnosis.tables import value_se_text
 from accelcore.errors import AccelcoreError
 from accelcore.fitting.calibrate import calibrate
+from accelcore.input.format import LAB_KEYS
 from accelcore.input.session import Session, load_session
 from accelcore.outputs import plots
-from accelcore.outputs.diagnosis_plot import plot_diagnosis
+from accelcore.outputs.diagnosis_plot import plot_residuals_per_axis
+from accelcore.outputs.plots import not_identified_terms
 from accelcore.outputs.report.html import (
+    NOT_IDENTIFIED,
     escape,
     figure_html,
     guarded,
@@ -39,33 +46,46 @@ __all__ = ["session_report"]
 
 
 def _figure4(session: Session, cal: Calibration) -> str:
-    picks: list[tuple[str, str]] = []
+    picks: list[tuple[str | None, str | None]] = []
     orientations = set(session.orientations)
-    for a in AXES:
+    for name in AXES:
         for sign in "+-":
-            o = f"O{a.upper()}{sign}"
-            if o in orientations:
-                picks.append((o, a))
+            label = f"O{name.upper()}{sign}"
+            if label in orientations:
+                picks.append((label, name))
                 break
-    fig = new_figure(4.6 * max(len(picks), 1), 4.0)
-    if picks:
-        axs = fig.subplots(1, len(picks), squeeze=False)[0]
-        for ax, (o, a) in zip(axs, picks, strict=True):
-            plots.plot_raw_vs_decimated(session, o, a, ax=ax, calibration=cal)
-    else:
-        plots.plot_raw_vs_decimated(session, ax=fig.subplots(), calibration=cal)
+    n = max(len(picks), 1)
+    fig = new_figure(4.6 * n, 6.6, columns=n, rows=2, hspace=0.25)
+    axs = fig.subplots(2, n, squeeze=False, sharex="col", height_ratios=[3, 2])
+    for col, (o, a) in enumerate(picks or [(None, None)]):
+        top, bottom = axs[0][col], axs[1][col]
+        plots.plot_raw_vs_decimated(
+            session, o, a, ax=top, calibration=cal, max_raw_points=plots.MAX_POINTS
+        )
+        plots.plot_averaging(session, o, a, ax=bottom, calibration=cal)
+        top.set_xlabel("")
+        top.tick_params(labelbottom=False)
     return figure_html(
         fig,
-        "Figure 4: raw log, 2 Hz decimated blocks, temperature-bin means and the calibration, "
-        "one run per axis (the axis gravity acts on).",
+        f"Figure 4: before and after averaging — the raw {session.rate_hz:g} Hz log (grey), "
+        f"its {session.rate_hz / session.decimation_factor:g} Hz block averages (blue), "
+        "temperature-bin means (orange) and the calibration's model (black), one run per axis "
+        "(the axis gravity acts on). Below: the raw and the averaged points minus the bin "
+        "means, σ their spread.",
         "Figure 4: raw and decimated output against temperature",
     )
 
 
 def _paired_figure(session: Session, cal: Calibration, kind: str) -> str:
     names = [a for a in AXES if a in cal.axes]
-    fig = new_figure(4.2 * max(len(names), 1), 3.8)
+    fig = new_figure(4.2 * max(len(names), 1), 3.8, columns=max(len(names), 1))
     axs = list(fig.subplots(1, max(len(names), 1), squeeze=False)[0])
+    held = [n for a in names for n in not_identified_terms(cal, a, kind)]
+    tail = (
+        f" No line where the term was not identified ({', '.join(held)}: held, not fitted)."
+        if held
+        else ""
+    )
     if kind == "gain":
         plots.plot_sensitivity_vs_temperature(session, cal, ax=axs, sensor_axes=names)
         caption = "Figure 6: sensitivity (V+ − V−)/2 per temperature bin and the fitted line."
@@ -74,20 +94,26 @@ def _paired_figure(session: Session, cal: Calibration, kind: str) -> str:
         plots.plot_offset_vs_temperature(session, cal, ax=axs, sensor_axes=names)
         caption = "Figure 7: zero-g offset (V+ + V−)/2 per temperature bin and the fitted line."
         alt = "Figure 7: zero-g offset against temperature"
-    return figure_html(fig, caption, alt)
+    return figure_html(fig, caption + tail, alt)
 
 
 def _residual_figure(diag: Diagnosis) -> str:
     import matplotlib.pyplot as plt  # optional: the [plot] extra
 
-    fig = plot_diagnosis(diag)
+    fig = plot_residuals_per_axis(diag)
     try:
-        obs = diag.default_observable
+        right = fig.axes[-1].get_xlabel() if len(fig.axes) > len(AXES) else ""
+        against = "temperature (left) and " + right + " (right)" if right else "temperature"
+        lines = (
+            "the binned mean of the residual"
+            if not diag.effects
+            else "the binned means of the base model (dashed) and of the diagnosed model (solid)"
+        )
         return figure_html(
             fig,
-            "Residual error (mg) of the base model (left) and the diagnosed model (right), "
-            f"against temperature (top) and {obs} (bottom).",
-            "Residual plots before and after the diagnosis",
+            f"Residual error (mg) per axis against {against}: points are the diagnosed "
+            f"model's residual (thinned to a fixed stride), lines {lines}.",
+            "Residual plots per axis, base model and diagnosed",
         )
     finally:
         plt.close(fig)
@@ -112,6 +138,10 @@ def _datasheet_tables(cal: Calibration) -> str:
     }
     for name, part in df.groupby("table", sort=False):
         parts.append(f"<h3>{escape(titles.get(str(name), str(name)))}</h3>")
+        rows = [
+            {**r, "parameter": _PARAMETER_NAMES.get(str(r["parameter"]), str(r["parameter"]))}
+            for r in part.to_dict(orient="records")
+        ]
         parts.append(
             table(
                 [
@@ -125,7 +155,7 @@ def _datasheet_tables(cal: Calibration) -> str:
                     "unit",
                     "in_spec",
                 ],
-                part.to_dict(orient="records"),
+                rows,
                 numeric=["min", "typ", "max", "measured", "measured_se"],
                 spec=["in_spec"],
                 rename={"measured_se": "± se", "in_spec": "in spec"},
@@ -135,10 +165,75 @@ def _datasheet_tables(cal: Calibration) -> str:
     return "\n".join(parts)
 
 
+#: Plain names of the datasheet parameters and of the summary's columns.
+_PARAMETER_NAMES = {
+    "zero_g_offset": "zero-g offset",
+    "sensitivity": "sensitivity",
+    "offset_tc": "offset TC",
+    "sensitivity_tc": "sensitivity TC",
+    "offset_tc_mg_per_c": "offset TC",
+    "sensitivity_tc_pct_per_c": "sensitivity TC",
+}
+
+
 def _summary_table(cal: Calibration) -> str:
-    df = cal.summary().reset_index()
-    cols = [str(c) for c in df.columns]
-    return table(cols, df.to_dict(orient="records"), numeric=cols[1:])
+    """One row per axis: each parameter with its standard error under it, in plain words."""
+    units = cal.units
+    columns = {
+        "zero_g_offset": (f"zero-g offset ({units})", "offset"),
+        "sensitivity": (f"sensitivity ({units}/g)", "sensitivity"),
+        "offset_tc_mg_per_c": ("offset TC (mg/°C)", "offset_tc"),
+        "sensitivity_tc_pct_per_c": ("sensitivity TC (%/°C)", "sensitivity_tc"),
+    }
+    rows: list[dict[str, Any]] = []
+    summary = cal.summary()
+    for a in cal.axes:
+        s = cal.axis(a)
+        row: dict[str, Any] = {"axis": a}
+        for c in columns:
+            row[c] = getattr(s, c)
+            row[f"{c}_se"] = getattr(s, f"{c}_se")
+        row["rms_residual_mg"] = summary.loc[a, "rms_residual_mg"]
+        row["n_samples"] = summary.loc[a, "n_samples"]
+        row[NOT_IDENTIFIED] = {
+            c for c, (_, n) in columns.items() if f"{a}:{n}" in cal.not_identified
+        }
+        rows.append(row)
+    cols = ["axis", *columns, "rms_residual_mg", "n_samples"]
+    rename = {c: h for c, (h, _) in columns.items()} | {
+        "rms_residual_mg": "RMS residual (mg)",
+        "n_samples": "samples",
+    }
+    return (
+        '<p class="muted">Standard errors under each value; T_ref = '
+        f"{escape(f'{cal.t_ref_c:g}')} °C; TC: temperature coefficient.</p>"
+        + table(
+            cols,
+            rows,
+            numeric=cols[1:],
+            rename=rename,
+            se={c: f"{c}_se" for c in columns},
+            cls="summary",
+        )
+    )
+
+
+def _lab_section(session: Session, cal: Calibration) -> str:
+    """Render the ``[lab]`` table of ``session.toml`` (as the calibration carries it)."""
+    lab: Mapping[str, Any] = cal.provenance.get("lab") or (
+        session.format.lab if session.format is not None else {}
+    )
+    if not lab:
+        return (
+            '<p class="muted">No lab record: <code>session.toml</code> has no <code>[lab]</code> '
+            f"table ({escape(', '.join(LAB_KEYS))}).</p>"
+        )
+    rows = "".join(
+        f"<tr><th>{escape(k.replace('_', ' ').capitalize())}</th>"
+        f'<td class="text">{escape(lab.get(k, "") or "–")}</td></tr>'
+        for k in LAB_KEYS
+    )
+    return f'<div class="scroll"><table class="kv lab"><tbody>{rows}</tbody></table></div>'
 
 
 def _diagnosis_section(diag: Diagnosis) -> str:
@@ -324,14 +419,18 @@ def session_report(
     lo, hi = cal.temperature_range_c
     runs = ", ".join(f"{r.label} ({r.orientation})" for r in sess.runs)
     diag = diagnosis
-    sections = [
-        f"<h1>{escape(title)} — session {escape(name)}</h1>",
+    lead = (
         f'<p class="muted">Sensor {escape(sess.sensor or "not named")}, serial '
         f"{escape(sess.serial or 'not given')}, units {escape(sess.units)}, "
         f"{escape(f'{sess.rate_hz:g}')} Hz; runs: {escape(runs)}; fitted over "
-        f"{escape(f'{lo:.1f}')}…{escape(f'{hi:.1f}')} °C ({escape(cal.method)} fit).</p>",
+        f"{escape(f'{lo:.1f}')}…{escape(f'{hi:.1f}')} °C ({escape(cal.method)} fit).</p>"
+    )
+    sections = [
         '<section id="summary"><h2>Calibration summary</h2>',
         guarded("Summary", lambda: _summary_table(cal)),
+        "</section>",
+        '<section id="lab"><h2>Lab record</h2>',
+        _lab_section(sess, cal),
         "</section>",
         '<section id="datasheet"><h2>Datasheet comparison</h2>',
         guarded("Datasheet comparison", lambda: _datasheet_tables(cal)),
@@ -355,4 +454,26 @@ def session_report(
         _provenance_section(sess, cal),
         "</section>",
     ]
-    return write_page(out_dir, page(f"accelcore report: {title}, {name}", sections))
+    return write_page(
+        out_dir,
+        page(
+            f"accelcore report: {title}, {name}",
+            sections,
+            heading=f"{title} — session {name}",
+            lead=lead,
+            nav=_NAV,
+        ),
+    )
+
+
+#: The navigation bar: section id and link text.
+_NAV = (
+    ("summary", "Summary"),
+    ("lab", "Lab record"),
+    ("datasheet", "Datasheet"),
+    ("figures", "Figures 4, 6, 7"),
+    ("effects", "Added effects"),
+    ("diagnosis", "Diagnosis"),
+    ("notes", "Notes"),
+    ("provenance", "Provenance"),
+)
