@@ -66,6 +66,12 @@ def test_default_factor_gives_blocks_of_half_a_second(rate_hz: float, factor: in
     assert default_decimation_factor(rate_hz) == factor
 
 
+def test_a_rate_beyond_any_logger_is_refused() -> None:
+    with pytest.raises(accelcore.ParameterError, match=r"rate_hz .*samples per block") as info:
+        default_decimation_factor(1.8e19)
+    assert info.value.parameter == "rate_hz"
+
+
 def test_from_arrays_decimates_by_the_rate_unless_told(tmp_path: Path) -> None:
     sim = simulate.arrays(
         "ADXL335", seed=7, duration_h=0.05, soak_min=1.0, orientations=("OZ+",), rate_hz=4.0

@@ -20,8 +20,10 @@ from numpy.typing import ArrayLike
 from accelcore.constants import DEFAULT_COLUMNS
 from accelcore.errors import ParameterError
 
-__all__ = ["BLOCK_S", "check_gravity", "default_decimation_factor", "fill_unlogged"]
+__all__ = ["BLOCK_S", "MAX_FACTOR", "check_gravity", "default_decimation_factor", "fill_unlogged"]
 
+#: Largest default decimation factor (a rate beyond any logger is an error, not a block).
+MAX_FACTOR = 2**31 - 1
 #: Length of a decimated block by default, s: the seed paper's 2 Hz from its 20 Hz logs.
 BLOCK_S = 0.5
 
@@ -43,7 +45,14 @@ def default_decimation_factor(rate_hz: float) -> int:
     """
     if not isinstance(rate_hz, (int, float)) or not math.isfinite(rate_hz) or rate_hz <= 0:
         raise _parameter("rate_hz", f"must be a positive number, got {rate_hz!r}")
-    return max(1, round(rate_hz * BLOCK_S))
+    factor = max(1, round(rate_hz * BLOCK_S))
+    if factor > MAX_FACTOR:
+        raise _parameter(
+            "rate_hz",
+            f"{rate_hz:g} Hz would average {factor} samples per block (at most {MAX_FACTOR}); "
+            "check rate_hz, or pass decimation_factor",
+        )
+    return factor
 
 
 def check_gravity(gravity_m_s2: object) -> float:
