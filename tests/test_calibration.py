@@ -94,7 +94,10 @@ def sweeps() -> dict[str, tuple[simulate.SimulatedArrays, dict[str, Calibration]
     for part in PARTS:
         sim = simulate.arrays(part, seed=SEEDS_2H[part], duration_h=2.0)
         s = session_of(sim)
-        out[part] = (sim, {m: calibrate(s, method=m) for m in METHODS})  # type: ignore[arg-type]
+        out[part] = (
+            sim,
+            {m: calibrate(s, method=m, window_c=(0.0, 60.0)) for m in METHODS},  # type: ignore[arg-type]
+        )
     return out
 
 

@@ -133,7 +133,7 @@ def test_thermal_sweep_is_decimated_like_every_reader(
     kind: str, instance: int, sweep_ulg: Path, sweep_bin: Path
 ) -> None:
     read, path = (read_ulog, sweep_ulg) if kind == "ulog" else (read_dataflash, sweep_bin)
-    session = read(path, instance=instance)
+    session = read(path, instance=instance, decimation_factor=10)
     truth = _sweep(instance)
     assert session.units == "m/s2"
     assert session.rate_hz == RATE

@@ -209,7 +209,7 @@ def test_temperature_not_covering_the_window_says_what_would_fix_it(tmp_path: Pa
     simulate.session(
         folder, "ADXL335", seed=4, duration_h=0.1, soak_min=1.0, t_start_c=20.0, t_end_c=35.0
     )
-    issues = check_session(accelcore.load_session(folder), warn=False)
+    issues = check_session(accelcore.load_session(folder), warn=False, window_c=(0.0, 60.0))
     assert _kinds(issues) == ["temperature"]
     message = issues[0].message
     assert "covers" in message and "0…60 °C" in message

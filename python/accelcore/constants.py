@@ -15,10 +15,12 @@ __all__ = [
     "DELIMITERS",
     "DTDT_SMOOTHING_S",
     "ORIENTATIONS",
+    "SAMPLE_TIME_UNIT",
     "SESSION_FORMAT",
     "STANDARD_GRAVITY",
     "TIME_UNITS",
     "UNITS",
+    "UNITS_PER_G",
 ]
 
 AXES: Final = ("x", "y", "z")
@@ -36,13 +38,19 @@ ORIENTATIONS: Final[Mapping[str, tuple[float, float, float]]] = MappingProxyType
 )
 """Gravity in g seen by each axis in each orientation of the paper (``OZ+``: Z up, +1 g on Z)."""
 
-UNITS: Final = ("V", "LSB", "g", "m/s2")
+UNITS: Final = ("V", "LSB", "g", "mg", "m/s2")
 """Output units a session (and a part's datasheet) may have."""
+
+UNITS_PER_G: Final[Mapping[str, float]] = MappingProxyType({"g": 1.0, "mg": 1000.0})
+"""Output per g of the units that are already acceleration (``m/s2``: the local gravity)."""
 
 TIME_UNITS: Final[Mapping[str, float]] = MappingProxyType(
     {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 )
 """Seconds per unit of a log's time column."""
+
+SAMPLE_TIME_UNIT: Final = "sample"
+"""``time_unit`` of a time column that counts samples: seconds are ``index / rate_hz``."""
 
 DELIMITERS: Final[Mapping[str, str]] = MappingProxyType(
     {",": ",", "\t": "\t", ";": ";", "\\t": "\t", "tab": "\t"}
@@ -58,7 +66,7 @@ SESSION_FORMAT: Final = "accelcore-session/1"
 """Value of ``format`` in ``session.toml``."""
 
 STANDARD_GRAVITY: Final = 9.80665
-"""Standard gravity, m/s² per g (sessions in m/s2)."""
+"""Standard gravity, m/s² per g: a session in m/s2 without ``gravity_m_s2`` assumes it."""
 
 DTDT_SMOOTHING_S: Final = 60.0
 """Time constant of the causal smoothing behind the ``dTdt`` model basis, s."""

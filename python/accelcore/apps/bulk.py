@@ -56,6 +56,7 @@ from accelcore.input.cache import CacheSetting
 from accelcore.input.format import SessionFormat
 from accelcore.input.quality import check_session
 from accelcore.input.readers.opener import FLIGHT_LOGS, is_flight_log, open_input
+from accelcore.input.session import default_decimation_factor
 from accelcore.outputs.report.fleet import FAILURE_COLUMNS, FLEET_COLUMNS
 
 __all__ = [
@@ -505,7 +506,7 @@ def read_run_split(
     temperature_column: str = "temp_c",
     channel_columns: Sequence[str] = ("x", "y", "z"),
     time_scale_to_s: float = 1.0,
-    factor: int = 10,
+    factor: int | None = None,
     rate_hz: float = 20.0,
     min_count: int = 1,
 ) -> Any:
@@ -530,7 +531,9 @@ def read_run_split(
     delimiter, time_column, temperature_column, channel_columns, time_scale_to_s
         The log's layout, as in ``session.toml``.
     factor, rate_hz, min_count
-        Decimation, as in :class:`accelcore.core.Decimator`.
+        Decimation, as in :class:`accelcore.core.Decimator`; the default
+        ``factor`` follows ``rate_hz`` (blocks of about 0.5 s,
+        :func:`accelcore.input.session.default_decimation_factor`).
 
     Returns
     -------
@@ -551,6 +554,8 @@ def read_run_split(
     ranges, t0_s = plan_split(str(path), pieces, **layout)
     if t0_s is None:
         raise AccelcoreError(f"{path}: no data row with a finite time")
+    if factor is None:
+        factor = default_decimation_factor(rate_hz)
     kwargs = {**layout, "t0_s": t0_s, "factor": factor, "rate_hz": rate_hz}
     if client is not None:
         futures = [

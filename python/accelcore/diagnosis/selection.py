@@ -339,7 +339,7 @@ def diagnose(
     *,
     max_steps: int = 4,
     t_ref_c: float = 25.0,
-    window_c: tuple[float, float] | None = (0.0, 60.0),
+    window_c: tuple[float, float] | None = None,
     folds: Literal["auto", "runs", "legs", "blocks"] = "auto",
     min_improvement: float = 0.10,
     alpha: float = 0.01,
@@ -368,8 +368,9 @@ def diagnose(
         Most effects to add.
     t_ref_c : float, default 25
         Reference temperature (without ``calibration``).
-    window_c : (float, float) or None, default (0, 60)
-        Temperature window of the samples used (without ``calibration``).
+    window_c : (float, float) or None, default None
+        Temperature window of the samples used (without ``calibration``);
+        None: the whole logged range.
     folds : {"auto", "runs", "legs", "blocks"}, default "auto"
         Held-out blocks: whole runs (three runs or more that keep every axis
         identified), legs of the temperature cycle, or thirds of each run.
@@ -428,7 +429,7 @@ def diagnose(
     if eng.n_folds < 2:
         warn.append("fewer than two held-out folds: nothing can be selected")
     tried = list(families)
-    span = temperature_span_c(eng)
+    span = temperature_span_c(eng) if session.has_temperature else 0.0
     if span < MIN_TEMPERATURE_SPAN_C:
         tried = [f for f in tried if f not in TEMPERATURE_FAMILIES]
         warn.append(

@@ -2,6 +2,8 @@
 
 Two methods: the paper's (bins and line fits) and the joint weighted least-squares
 fit over every decimated sample, in the core's Givens QR (:class:`accelcore.core.LeastSquares`).
+:mod:`.calibrate` holds both; :mod:`.stacking` lays a session out for the joint fit
+(the samples in the window, their features and block weights).
 
 May import: the foundation, the input room (the session it fits), the model room
 (terms and their evaluation) and the result room (the :class:`Calibration` it builds).

@@ -4,9 +4,10 @@ Two methods, one result type (:class:`accelcore.result.calibration.Calibration`)
 
 ``method="paper"``
     Sawicki & Walendziuk: decimate 20 Hz to 2 Hz, bin by temperature (0.5 °C
-    over 0–60 °C), per bin ``V0g = (V+ + V-)/2`` and ``S = (V+ - V-)/2`` from the
-    axis' two orientations (equations 8–10), then a line fit of each against
-    temperature.
+    bins over the window: the paper's 0–60 °C when it is passed, by default
+    the logged range on the same grid of multiples of the bin width), per bin
+    ``V0g = (V+ + V-)/2`` and ``S = (V+ - V-)/2`` from the axis' two
+    orientations (equations 8–10), then a line fit of each against temperature.
 ``method="joint"`` (default)
     One weighted least-squares fit per axis over every decimated sample of
     every run, with the gravity each orientation implies on that axis
@@ -20,7 +21,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
@@ -29,13 +29,11 @@ from numpy.typing import NDArray
 from accelcore import core
 from accelcore._accelcore import __version__
 from accelcore.errors import InsufficientDataError, ParameterError, SingularSystemError
-from accelcore.input.quality import excluded_blocks
-from accelcore.input.records import records
-from accelcore.input.session import Run, Session
+from accelcore.fitting.stacking import CutFeatures, Stacked, block_weights, stack_session
+from accelcore.input.session import Session
 from accelcore.model import (
     AXES,
     Constant,
-    Features,
     TemperaturePower,
     Term,
     base_terms,
@@ -43,120 +41,9 @@ from accelcore.model import (
     full_gain_terms,
 )
 from accelcore.result.calibration import AxisModel, Calibration, nominal_sensitivity
+from accelcore.result.compensator import needs_temperature
 
 __all__ = ["CutFeatures", "Stacked", "block_weights", "calibrate", "fit_axis", "stack_session"]
-
-
-@dataclass
-class Stacked:
-    """Decimated samples of every run inside the window, with per-run features."""
-
-    features: list[Features]
-    gravity: list[NDArray[np.float64]]
-    output: list[NDArray[np.float64]]
-    weight: list[NDArray[np.float64]]
-    run_index: list[int]
-    notes: list[str] = field(default_factory=list)
-
-    @property
-    def temperature_range_c(self) -> tuple[float, float]:
-        """Lowest and highest temperature of the stacked samples, °C."""
-        temps = np.concatenate([f.temperature_c for f in self.features])
-        return float(temps.min()), float(temps.max())
-
-
-def block_weights(run: Run, robust: bool = True) -> tuple[NDArray[np.float64], str | None]:
-    """Least-squares weight of each decimated block of a run, and a note on what was left out.
-
-    A block mean of ``count`` samples has variance ``sigma² / count``, so its
-    weight is its count. With ``robust``, spikes and blocks clipped at a rail
-    (:func:`accelcore.input.quality.excluded_blocks`) get weight 0.
-    """
-    weight = run.count.astype(np.float64)
-    if not robust:
-        return weight, None
-
-    mask, n_spikes, n_clipped = excluded_blocks(run)
-    if not mask.any():
-        return weight, None
-    weight[mask] = 0.0
-    parts = [f"{n} spike block(s)" for n in (n_spikes,) if n] + [
-        f"{n} clipped block(s)" for n in (n_clipped,) if n
-    ]
-    return weight, f"{run.label}: left out {' and '.join(parts)} of {len(run)}"
-
-
-def stack_session(
-    session: Session,
-    t_ref_c: float,
-    window_c: tuple[float, float] | None,
-    runs: Sequence[int] | None = None,
-    robust: bool = True,
-) -> Stacked:
-    """Per record: features, gravity, output and weights of the samples inside the window.
-
-    A record is a run, or the contiguous pieces of one log joined
-    (:func:`accelcore.input.records.records`; ``runs`` indexes the records), so a
-    log's history does not restart where its files were cut.
-
-    Features (elapsed time, lagged temperature) are computed on the whole run
-    first and then cut to the window, so a lag filter sees the run's history.
-    With ``robust``, spikes and clipped blocks get weight 0 (see :func:`block_weights`).
-    """
-    feats: list[Features] = []
-    grav, out, wts, idx = [], [], [], []
-    notes: list[str] = []
-    for i, run in enumerate(records(session)):
-        if runs is not None and i not in runs:
-            continue
-        time_s = run.time_s - run.time_s[0] if len(run) else run.time_s
-        whole = Features(run.temperature_c, time_s, run.extras, t_ref_c)
-        if window_c is None:
-            keep = np.ones(len(run), dtype=bool)
-        else:
-            keep = (run.temperature_c >= window_c[0]) & (run.temperature_c <= window_c[1])
-        if not keep.any():
-            continue
-        weight, note = block_weights(run, robust)
-        if note:
-            notes.append(note)
-        feats.append(CutFeatures.cut(whole, keep))
-        grav.append(run.gravity_g)
-        out.append(run.output[keep])
-        wts.append(weight[keep])
-        idx.append(i)
-    if not feats:
-        lo, hi = window_c if window_c else (-math.inf, math.inf)
-        raise InsufficientDataError(
-            f"no decimated sample lies in the window {lo}…{hi} °C; widen window_c or log a "
-            "sweep that covers it"
-        )
-    return Stacked(feats, grav, out, wts, idx, notes)
-
-
-class CutFeatures(Features):
-    """Features of a run restricted to a mask, lag computed on the whole run."""
-
-    @classmethod
-    def cut(cls, whole: Features, keep: NDArray[np.bool_]) -> CutFeatures:
-        """Restrict ``whole`` to the samples where ``keep`` is true."""
-        obj = cls(
-            whole.temperature_c[keep],
-            None if whole.time_s is None else whole.time_s[keep],
-            {k: v[keep] for k, v in whole.extras.items()},
-            whole.t_ref_c,
-            run=whole.run,
-        )
-        obj._whole = whole
-        obj._keep = keep
-        return obj
-
-    _whole: Features
-    _keep: NDArray[np.bool_]
-
-    def lagged_temperature_c(self, tau_s: float) -> NDArray[np.float64]:
-        """Lagged temperature of the whole run (lag state unbroken), then cut."""
-        return self._whole.lagged_temperature_c(tau_s)[self._keep]
 
 
 def fit_axis(
@@ -334,7 +221,7 @@ def _fit_joint(
     robust: bool = True,
 ) -> tuple[dict[str, AxisModel], list[str], list[str], tuple[float, float], dict[str, float]]:
     data = stack_session(session, t_ref_c, window_c, runs, robust)
-    nominal = nominal_sensitivity(session.units, session.sensor)
+    nominal = nominal_sensitivity(session.units, session.sensor, session.gravity_m_s2)
     refs = dict(references) if references is not None else _extra_references(session, terms)
     axes: dict[str, AxisModel] = {}
     not_identified: list[str] = []
@@ -446,6 +333,20 @@ def _fit_paper(
     return axes, not_identified, notes, (t_lo, t_hi)
 
 
+def _logged_bins(session: Session, width_c: float) -> tuple[float, float]:
+    """Whole bins of ``width_c`` on the grid of its multiples that hold every logged temperature."""
+    temps = [r.temperature_c[np.isfinite(r.temperature_c)] for r in session.runs]
+    temps = [t for t in temps if t.size]
+    if not temps:
+        raise InsufficientDataError(
+            "the paper's method bins by temperature, and no run logged one; use method='joint'"
+        )
+    lo = min(float(t.min()) for t in temps)
+    hi = max(float(t.max()) for t in temps)
+    # Bins are [lo, hi): the top edge lies a whole bin above the warmest sample's bin.
+    return math.floor(lo / width_c) * width_c, (math.floor(hi / width_c) + 1) * width_c
+
+
 def _parameter(name: str, text: str) -> ParameterError:
     err = ParameterError(f"{name} {text}")
     err.parameter = name
@@ -482,7 +383,7 @@ def calibrate(
     method: Literal["joint", "paper"] = "joint",
     *,
     t_ref_c: float = 25.0,
-    window_c: tuple[float, float] | None = (0.0, 60.0),
+    window_c: tuple[float, float] | None = None,
     bin_width_c: float = 0.5,
     terms: Mapping[str, Sequence[Term]] | None = None,
     robust: bool = True,
@@ -497,9 +398,13 @@ def calibrate(
         See the module docs.
     t_ref_c : float, default 25.0
         Reference temperature of the reported offset and sensitivity, °C.
-    window_c : (float, float) or None, default (0, 60)
-        Only samples with logged temperature in this window are used (the
-        paper's 0–60 °C, away from the chamber's unstable ends). None: all.
+    window_c : (float, float) or None, default None
+        Only samples with logged temperature in this window are used; None
+        (the default): every sample, the whole logged range. The seed paper
+        used 0–60 °C, away from its chamber's unstable ends: pass
+        ``window_c=(0.0, 60.0)`` to reproduce it. The paper's method bins the
+        window, or without one the logged range, in ``bin_width_c`` bins on
+        the grid of multiples of ``bin_width_c``.
     bin_width_c : float, default 0.5
         Temperature bin width of the paper's method, °C.
     terms : mapping of axis to sequence of Term, optional
@@ -538,21 +443,49 @@ def calibrate(
         "bin_width_c": bin_width_c,
         "decimation_factor": session.decimation_factor,
         "robust": robust,
+        "gravity_m_s2": session.gravity_m_s2,
     }
     refs: dict[str, float] = {}
+    if not session.has_temperature:
+        if method == "paper":
+            raise InsufficientDataError(
+                "no temperature logged: the paper's method bins by temperature; use "
+                "method='joint' (a calibration at one temperature)"
+            )
+        if window_c is not None:
+            raise _parameter("window_c", "cannot apply: the session logged no temperature")
     if method == "paper":
         if terms is not None:
             raise ParameterError("terms= applies to method='joint' only")
         axes, not_identified, notes, t_range = _fit_paper(
-            session, t_ref_c, window_c or (-273.15, 1000.0), bin_width_c, robust
+            session, t_ref_c, window_c or _logged_bins(session, bin_width_c), bin_width_c, robust
         )
     else:
         model_terms = {
             a: tuple(terms[a]) if terms and a in terms else full_gain_terms(a) for a in AXES
         }
+        unlogged: list[str] = []
+        if not session.has_temperature:
+            unlogged = [
+                f"{a}:{_public_name(t, a)}"
+                for a in AXES
+                for t in model_terms[a]
+                if needs_temperature(t.basis)
+            ]
+            model_terms = {
+                a: tuple(t for t in ts if not needs_temperature(t.basis))
+                for a, ts in model_terms.items()
+            }
         axes, not_identified, notes, t_range, refs = _fit_joint(
             session, model_terms, t_ref_c, window_c, robust=robust
         )
+        if unlogged:
+            not_identified = [*unlogged, *not_identified]
+            notes = [
+                "no temperature logged: calibration at one temperature (offset, sensitivity "
+                "and cross-axis gain; no temperature terms, T_ref does not apply)",
+                *notes,
+            ]
     lo, hi = t_range
     if math.isfinite(lo) and not lo <= t_ref_c <= hi:
         away = lo - t_ref_c if t_ref_c < lo else t_ref_c - hi

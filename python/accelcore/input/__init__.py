@@ -6,7 +6,9 @@ single-log, Parquet and TDMS files), the persistent run cache (:mod:`.cache`, it
 entry file in :mod:`.cache_entry`), the data-quality screening of runs
 (:mod:`.quality`), the checks of in-memory runs (:mod:`.frames`) and of header
 names (:mod:`.headers`), and the consistency of a session's labels, units and
-rate with its data, checked before any fit (:mod:`.consistency`). Run
+rate with its data, checked before any fit (:mod:`.consistency`), and the
+defaults that fit a log (:mod:`.defaults`: decimation by rate, time or temperature
+not logged, local gravity). Run
 statistics come from the core's ``RunTally`` everywhere.
 Everything downstream receives a :class:`~accelcore.input.session.Session`.
 

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from accelcore import datasheets
-from accelcore.constants import AXES, STANDARD_GRAVITY
+from accelcore.constants import AXES, STANDARD_GRAVITY, UNITS_PER_G
 from accelcore.errors import DataQualityWarning, SessionFormatError
 from accelcore.input.run import Run
 
@@ -83,7 +83,13 @@ def check_rate(runs: Sequence[Run], rate_hz: float, factor: int, where: str) -> 
             )
 
 
-def check_labels(runs: Sequence[Run], units: str, sensor: str | None, where: str) -> None:
+def check_labels(
+    runs: Sequence[Run],
+    units: str,
+    sensor: str | None,
+    where: str,
+    gravity_m_s2: float = STANDARD_GRAVITY,
+) -> None:
     """Refuse runs whose output contradicts their orientation labels or the units.
 
     Parameters
@@ -95,6 +101,8 @@ def check_labels(runs: Sequence[Run], units: str, sensor: str | None, where: str
         Datasheet name, when known.
     where : str
         What messages name (the session folder).
+    gravity_m_s2 : float, default standard gravity
+        The local gravity: output per g of a session in ``m/s2``.
 
     Raises
     ------
@@ -108,7 +116,7 @@ def check_labels(runs: Sequence[Run], units: str, sensor: str | None, where: str
     accelcore.DataQualityWarning
         ``V`` or ``LSB`` data whose scale is far from the datasheet's.
     """
-    expected = _expected_scale(units, sensor, where)
+    expected = _expected_scale(units, sensor, where, gravity_m_s2)
     live = [r for r in runs if len(r) and np.isfinite(r.output).any()]
     if not live:
         return
@@ -206,13 +214,13 @@ def _check_scale(
 
 
 def _expected_scale(
-    units: str, sensor: str | None, where: str
+    units: str, sensor: str | None, where: str, gravity_m_s2: float = STANDARD_GRAVITY
 ) -> tuple[float, float, float] | None:
-    """Output per g that the units imply: 1, 9.81, or the datasheet's typical sensitivity."""
-    if units == "g":
-        return (1.0, 1.0, 1.0)
+    """Output per g the units imply: 1, 1000, the local gravity, or the datasheet's typical."""
+    if units in UNITS_PER_G:
+        return (UNITS_PER_G[units],) * 3
     if units == "m/s2":
-        return (STANDARD_GRAVITY,) * 3
+        return (gravity_m_s2,) * 3
     if not sensor:
         return None
     try:
@@ -222,7 +230,7 @@ def _expected_scale(
     if sheet.units in ("V", "LSB") and sheet.units != units:
         raise SessionFormatError(
             f"{where}: units = {units!r}, but the {sheet.name} datasheet gives its output in "
-            f"{sheet.units}; declare units = {sheet.units!r}, or the output in g or m/s2"
+            f"{sheet.units}; declare units = {sheet.units!r}, or the output in g, mg or m/s2"
         )
     typ = sheet.typical("sensitivity")
     if any(t is None for t in typ):

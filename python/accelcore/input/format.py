@@ -31,7 +31,9 @@ from accelcore.constants import (
     DEFAULT_COLUMNS,
     DELIMITERS,
     ORIENTATIONS,
+    SAMPLE_TIME_UNIT,
     SESSION_FORMAT,
+    STANDARD_GRAVITY,
     TIME_UNITS,
     UNITS,
 )
@@ -138,7 +140,7 @@ class SessionFormat:
     version : str
         The ``format`` key (always :data:`accelcore.constants.SESSION_FORMAT`).
     units : str
-        ``V``, ``LSB``, ``g`` or ``m/s2``.
+        ``V``, ``LSB``, ``g``, ``mg`` or ``m/s2``.
     rate_hz : float
         Nominal sample rate of the logs.
     sensor, serial : str or None
@@ -147,10 +149,13 @@ class SessionFormat:
         The ``delimiter`` key as written (a comma, a semicolon, a tab or ``tab``);
         :attr:`separator` is the character it stands for.
     time_unit : str
-        Unit of the time column: ``s``, ``ms``, ``us`` or ``ns``.
+        Unit of the time column: ``s``, ``ms``, ``us``, ``ns``, or ``sample`` (a
+        sample index: seconds are ``index / rate_hz``).
     columns : mapping of str to str
         Log column of each role (``time``, ``temperature``, ``x``, ``y``, ``z``),
-        defaults filled in. Every other column of a log is an extra observable.
+        defaults filled in; an empty ``temperature`` means the logs hold no
+        temperature (:attr:`has_temperature`). Every other column of a log is an
+        extra observable.
     runs : tuple of RunSpec
         The ``[[run]]`` tables, in order.
     sha256 : str
@@ -159,6 +164,9 @@ class SessionFormat:
         The optional ``[lab]`` table (``date``, ``operator``, ``chamber``,
         ``reference_probe``, ``notes``): the lab's record, carried into the
         calibration's provenance.
+    gravity_m_s2 : float
+        The local gravity, m/s² (the ``gravity_m_s2`` key; default standard
+        gravity): what 1 g of the orientations is in a session in ``m/s2``.
     """
 
     folder: Path
@@ -173,6 +181,7 @@ class SessionFormat:
     runs: tuple[RunSpec, ...]
     sha256: str
     lab: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
+    gravity_m_s2: float = STANDARD_GRAVITY
 
     @property
     def toml_path(self) -> Path:
@@ -186,8 +195,15 @@ class SessionFormat:
 
     @property
     def time_scale_to_s(self) -> float:
-        """Seconds per unit of the time column."""
+        """Seconds per unit of the time column (``1 / rate_hz`` for a sample index)."""
+        if self.time_unit == SAMPLE_TIME_UNIT:
+            return 1.0 / self.rate_hz
         return TIME_UNITS[self.time_unit]
+
+    @property
+    def has_temperature(self) -> bool:
+        """False when ``[columns]`` says ``temperature = ""``: no temperature was logged."""
+        return self.columns["temperature"] != ""
 
     @property
     def channel_columns(self) -> tuple[str, str, str]:
@@ -330,9 +346,20 @@ class SessionFormat:
                 f"{where}: delimiter must be ',', '\\t' or ';', got {delimiter!r}"
             )
         time_unit = meta.get("time_unit", "s")
-        if not isinstance(time_unit, str) or time_unit not in TIME_UNITS:
+        units_of_time = (*TIME_UNITS, SAMPLE_TIME_UNIT)
+        if not isinstance(time_unit, str) or time_unit not in units_of_time:
             raise SessionFormatError(
-                f"{where}: time_unit must be one of {', '.join(TIME_UNITS)}, got {time_unit!r}"
+                f"{where}: time_unit must be one of {', '.join(units_of_time)}, got {time_unit!r}"
+            )
+        gravity = meta.get("gravity_m_s2", STANDARD_GRAVITY)
+        if (
+            isinstance(gravity, bool)
+            or not isinstance(gravity, (int, float))
+            or not 9.7 <= gravity <= 9.9
+        ):
+            raise SessionFormatError(
+                f"{where}: gravity_m_s2 must be the local gravity in m/s² (9.7 to 9.9; "
+                f"standard {STANDARD_GRAVITY}), got {gravity!r}"
             )
         columns = _columns(meta.get("columns", {}), where)
         runs = _runs(meta.get("run"), folder, where, check_files=check_files)
@@ -352,6 +379,7 @@ class SessionFormat:
             runs=runs,
             sha256=sha256,
             lab=MappingProxyType(lab),
+            gravity_m_s2=float(gravity),
         )
 
 
@@ -364,6 +392,7 @@ TOP_KEYS = (
     "rate_hz",
     "delimiter",
     "time_unit",
+    "gravity_m_s2",
     "columns",
     "run",
     "lab",
@@ -405,7 +434,13 @@ def _columns(given: object, where: str) -> dict[str, str]:
         raise SessionFormatError(
             f"{where}: unknown key(s) in [columns]: {', '.join(sorted(unknown))}"
         )
-    check_distinct_columns(columns, where)
+    empty = [k for k, v in columns.items() if not v.strip() and k != "temperature"]
+    if empty:
+        raise SessionFormatError(
+            f"{where}: [columns] {', '.join(empty)} must name a column (only temperature may "
+            'be "": no temperature logged)'
+        )
+    check_distinct_columns({k: v for k, v in columns.items() if v}, where)
     return columns
 
 

@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -97,7 +98,7 @@ def check_session(
     outlier_window: int = 9,
     step_z: float = 12.0,
     step_window: int = 20,
-    window_c: tuple[float, float] | None = (0.0, 60.0),
+    window_c: tuple[float, float] | Literal["logged"] | None = "logged",
     bin_width_c: float = 0.5,
     min_bins: int = 3,
     short_fraction: float = 0.5,
@@ -122,9 +123,11 @@ def check_session(
         A step is a jump between the medians of the ``step_window`` blocks
         after and before a point, less the local drift (from the neighbouring
         windows), whose robust z-score exceeds ``step_z``.
-    window_c : (float, float) or None, default (0, 60)
-        Analysis window (as in :func:`accelcore.calibrate`); None skips the
-        temperature checks.
+    window_c : (float, float), "logged" or None, default "logged"
+        Analysis window (as in :func:`accelcore.calibrate`); ``"logged"`` (the
+        default of :func:`accelcore.calibrate`): the logged range, so only the
+        bins holding both orientations of an axis are checked; None skips the
+        temperature checks. A session that logged no temperature has none.
     bin_width_c : float, default 0.5
         Temperature bin width, °C (as in :func:`accelcore.calibrate`).
     min_bins : int, default 3
@@ -162,7 +165,9 @@ def check_session(
                 count=total_nonfinite,
             )
         )
-    if window_c is not None:
+    if window_c == "logged":
+        window_c = _logged_range(session)
+    if window_c is not None and session.has_temperature:
         issues += _check_temperature(session, window_c, bin_width_c, min_bins)
     issues += _check_short_runs(session, short_fraction)
     if warn:
@@ -424,6 +429,15 @@ def _check_steps(
             )
         )
     return out
+
+
+def _logged_range(session: Session) -> tuple[float, float] | None:
+    """Lowest and highest finite logged temperature, or None when none was logged."""
+    temps = [r.temperature_c[np.isfinite(r.temperature_c)] for r in session.runs]
+    temps = [t for t in temps if t.size]
+    if not temps:
+        return None
+    return min(float(t.min()) for t in temps), max(float(t.max()) for t in temps)
 
 
 def _check_temperature(

@@ -24,10 +24,21 @@ from numpy.typing import ArrayLike, NDArray
 
 from accelcore import core
 from accelcore._accelcore import RunTally, digest_bytes, read_run
-from accelcore.constants import AXES, ORIENTATIONS, SESSION_FORMAT
-from accelcore.errors import AccelcoreIOError, InsufficientDataError, ParameterError
+from accelcore.constants import (
+    AXES,
+    ORIENTATIONS,
+    SESSION_FORMAT,
+    STANDARD_GRAVITY,
+)
+from accelcore.errors import (
+    AccelcoreIOError,
+    InsufficientDataError,
+    ParameterError,
+    SessionFormatError,
+)
 from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
 from accelcore.input.consistency import check_labels, check_rate
+from accelcore.input.defaults import check_gravity, default_decimation_factor, fill_unlogged
 from accelcore.input.format import SessionFormat, check_units, gravity_of
 from accelcore.input.frames import run_table
 from accelcore.input.run import Run, RunStats
@@ -41,6 +52,7 @@ __all__ = [
     "RunStats",
     "Session",
     "SessionFormat",
+    "default_decimation_factor",
     "gravity_of",
     "load_session",
 ]
@@ -57,8 +69,10 @@ class Session:
     Attributes
     ----------
     runs : tuple of Run
+        A session that logged no temperature has NaN temperatures
+        (:attr:`has_temperature` is False).
     units : str
-        ``V``, ``LSB``, ``g`` or ``m/s2``.
+        ``V``, ``LSB``, ``g``, ``mg`` or ``m/s2``.
     rate_hz : float
         Nominal raw sample rate.
     sensor : str or None
@@ -77,6 +91,9 @@ class Session:
     format : SessionFormat or None
         What ``session.toml`` says (delimiter, columns, time unit, run files...),
         when read from disk; None for :meth:`from_arrays` and the other readers.
+    gravity_m_s2 : float
+        The local gravity, m/s² (default standard gravity): what the 1 g of the
+        orientations is in a session in ``m/s2``.
     """
 
     runs: tuple[Run, ...]
@@ -89,6 +106,7 @@ class Session:
     file_digests: dict[str, str] = field(default_factory=dict)
     format: SessionFormat | None = None
     digest: str = DIGESTS[0]
+    gravity_m_s2: float = STANDARD_GRAVITY
 
     @property
     def file_sha256(self) -> dict[str, str]:
@@ -99,6 +117,11 @@ class Session:
     def orientations(self) -> tuple[str, ...]:
         """Orientation of every run, in order."""
         return tuple(r.orientation for r in self.runs)
+
+    @property
+    def has_temperature(self) -> bool:
+        """True when some run logged a finite temperature (False: no temperature column)."""
+        return any(bool(np.isfinite(r.temperature_c).any()) for r in self.runs)
 
     @property
     def extra_columns(self) -> tuple[str, ...]:
@@ -137,7 +160,7 @@ class Session:
         """
         where = self.path or "session"
         check_rate(self.runs, self.rate_hz, self.decimation_factor, where)
-        check_labels(self.runs, self.units, self.sensor, where)
+        check_labels(self.runs, self.units, self.sensor, where, self.gravity_m_s2)
 
     def file_hashes(self) -> dict[str, str]:
         """Digest of ``session.toml`` and every run file, for provenance.
@@ -156,8 +179,9 @@ class Session:
         rate_hz: float,
         sensor: str | None = None,
         serial: str | None = None,
-        decimation_factor: int = 10,
+        decimation_factor: int | None = None,
         columns: Mapping[str, str] | None = None,
+        gravity_m_s2: float = STANDARD_GRAVITY,
     ) -> Session:
         """Build a session from in-memory data, decimated like a file would be.
 
@@ -166,35 +190,55 @@ class Session:
         runs : sequence of (orientation, data)
             ``data`` is a mapping of column name to 1-D array, or a pandas
             DataFrame, with the time, temperature, x, y, z columns (names as in
-            ``columns``) and any extra observables.
+            ``columns``) and any extra observables. Time and temperature may be
+            left out (see ``columns``).
         units : str
-            ``V``, ``LSB``, ``g`` or ``m/s2``.
+            ``V``, ``LSB``, ``g``, ``mg`` or ``m/s2``.
         rate_hz : float
             Nominal sample rate of the data.
         sensor, serial : str, optional
             Datasheet name and serial.
-        decimation_factor : int, default 10
-            Raw samples per block (1 keeps the data as it is).
+        decimation_factor : int, optional
+            Raw samples per block (1 keeps the data as it is); default
+            :func:`default_decimation_factor` of ``rate_hz`` (blocks of about 0.5 s).
         columns : mapping, optional
-            Column names, defaults ``time_s, temp_c, x, y, z``.
+            Column names, defaults ``time_s, temp_c, x, y, z``. A time or
+            temperature role named ``""``, or not named and whose default column
+            the data lacks, is not logged: time is then the sample index over
+            ``rate_hz``, and without temperature the session calibrates at one
+            temperature (:attr:`Session.has_temperature` is False). Every run
+            must agree on whether temperature was logged.
+        gravity_m_s2 : float, default standard gravity
+            The local gravity, m/s²: output per g of data in ``m/s2``.
 
         Returns
         -------
         Session
         """
         check_units(units, "units")
+        if decimation_factor is None:
+            decimation_factor = default_decimation_factor(rate_hz)
         _check_read_options(decimation_factor, 1, rate_hz)
         runs = list(runs)
         if not runs:
             raise InsufficientDataError("from_arrays: no runs given; a session needs at least one")
         built = []
+        logged: set[bool] = set()
         for i, item in enumerate(runs, start=1):
             if not isinstance(item, tuple) or len(item) != 2:
                 raise ParameterError(f"run {i}: expected an (orientation, data) pair")
             orientation, data = item
             gravity = gravity_of(str(orientation))
             label = f"run {i} ({str(orientation).strip().upper()})"
-            table, extra_names = run_table(data, label, columns)
+            data, names, has_temperature = fill_unlogged(data, columns, rate_hz)
+            logged.add(has_temperature)
+            if len(logged) > 1:
+                raise SessionFormatError(
+                    f"{label}: temperature is {'' if has_temperature else 'not '}logged here "
+                    f"but {'not ' if has_temperature else ''}in an earlier run; every run of a "
+                    "session logs it, or none does"
+                )
+            table, extra_names = run_table(data, label, names)
             channels = np.column_stack(table[2:])
             time_s, temp_c = table[0], table[1]
             dec = core.Decimator(
@@ -207,7 +251,13 @@ class Session:
             stats = RunStats.from_raw(tally.finish())
             built.append(
                 _make_run(
-                    str(orientation).strip().upper(), gravity, blocks, extra_names, None, stats
+                    str(orientation).strip().upper(),
+                    gravity,
+                    blocks,
+                    extra_names,
+                    None,
+                    stats,
+                    temperature=has_temperature,
                 )
             )
         return cls(
@@ -218,6 +268,7 @@ class Session:
             serial=serial,
             path=None,
             decimation_factor=decimation_factor,
+            gravity_m_s2=check_gravity(gravity_m_s2),
         )
 
 
@@ -272,14 +323,19 @@ def _make_run(
     extra_names: Sequence[str],
     source: str | None,
     stats: RunStats,
+    *,
+    temperature: bool = True,
 ) -> Run:
+    """Build a run from decimated blocks; without ``temperature``, its temperatures are NaN."""
     channels = blocks.channels
     extras = {name: channels[:, 3 + i].copy() for i, name in enumerate(extra_names)}
     return Run(
         orientation=orientation,
         gravity_g=gravity,
         time_s=blocks.time_s,
-        temperature_c=blocks.temperature_c,
+        temperature_c=blocks.temperature_c
+        if temperature
+        else np.full(blocks.temperature_c.shape, np.nan),
         output=np.ascontiguousarray(channels[:, :3]),
         count=blocks.count,
         extras=extras,
@@ -305,7 +361,7 @@ class _ReadParams(TypedDict):
 def load_session(
     path: str | Path,
     *,
-    decimation_factor: int = 10,
+    decimation_factor: int | None = None,
     min_count: int = 1,
     cache: CacheSetting = True,
     digest: str = DIGESTS[0],
@@ -316,8 +372,10 @@ def load_session(
     ----------
     path : str or Path
         The session folder (holding ``session.toml``).
-    decimation_factor : int, default 10
-        Raw samples per block: 10 turns 20 Hz into 2 Hz, as in the seed paper.
+    decimation_factor : int, optional
+        Raw samples per block; default :func:`default_decimation_factor` of the
+        session's ``rate_hz``: blocks of about 0.5 s, so 10 turns 20 Hz into 2 Hz
+        as in the seed paper, and a log at 2 Hz or slower is kept as it is.
     min_count : int, default 1
         Blocks with fewer valid raw samples are dropped.
     cache : bool, str or os.PathLike, default True
@@ -361,14 +419,20 @@ def load_session(
     2 s before they are read are not cached. ``session.toml`` is always read
     and hashed.
     """
-    _check_read_options(decimation_factor, min_count)
+    if decimation_factor is not None:
+        _check_read_options(decimation_factor, min_count)
     if digest not in DIGESTS:
         raise _parameter("digest", f"must be one of {', '.join(DIGESTS)}, got {digest!r}")
     fmt = SessionFormat.read(path)
+    if decimation_factor is None:
+        decimation_factor = default_decimation_factor(fmt.rate_hz)
+        _check_read_options(decimation_factor, min_count)
     params: _ReadParams = {
         "delimiter": fmt.separator,
         "time_column": fmt.columns["time"],
-        "temperature_column": fmt.columns["temperature"],
+        # No temperature logged: the reader averages the (always finite) time
+        # column in its place, and the runs get NaN temperatures.
+        "temperature_column": fmt.columns["temperature"] or fmt.columns["time"],
         "channel_columns": list(fmt.channel_columns),
         "keep_extra_columns": True,
         "time_scale_to_s": fmt.time_scale_to_s,
@@ -426,6 +490,7 @@ def load_session(
                 data.channel_names[3:],
                 str(spec.path),
                 stats,
+                temperature=fmt.has_temperature,
             )
         )
     return Session(
@@ -439,6 +504,7 @@ def load_session(
         file_digests=file_digests,
         format=fmt,
         digest=digest,
+        gravity_m_s2=fmt.gravity_m_s2,
     )
 
 

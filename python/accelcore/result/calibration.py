@@ -28,7 +28,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from accelcore import datasheets
-from accelcore.constants import STANDARD_GRAVITY
+from accelcore.constants import STANDARD_GRAVITY, UNITS_PER_G
 from accelcore.errors import AccelcoreError, CalibrationFileError, InsufficientDataError
 from accelcore.files import check_outputs
 from accelcore.model import AXES, Basis, TemperaturePower, Term
@@ -48,16 +48,19 @@ __all__ = [
 ]
 
 
-def nominal_sensitivity(units: str, sensor: str | None) -> tuple[float, float, float] | None:
+def nominal_sensitivity(
+    units: str, sensor: str | None, gravity_m_s2: float = STANDARD_GRAVITY
+) -> tuple[float, float, float] | None:
     """Nominal sensitivity per axis in ``units``/g, or None when unknown.
 
-    ``g`` gives 1, ``m/s2`` gives 9.80665 (standard gravity); ``V`` and ``LSB``
-    take the datasheet typical of ``sensor``.
+    ``g`` gives 1, ``mg`` 1000, ``m/s2`` the local gravity ``gravity_m_s2``
+    (default standard gravity, 9.80665); ``V`` and ``LSB`` take the datasheet
+    typical of ``sensor``.
     """
-    if units == "g":
-        return (1.0, 1.0, 1.0)
+    if units in UNITS_PER_G:
+        return (UNITS_PER_G[units],) * 3
     if units == "m/s2":
-        return (STANDARD_GRAVITY,) * 3
+        return (gravity_m_s2,) * 3
     if sensor:
         try:
             sheet = datasheets.load(sensor)
@@ -193,6 +196,8 @@ class Calibration:
         Temperature window the data was taken from, °C.
     temperature_range_c : tuple of float
         Range of temperatures actually fitted, °C; compensation outside it warns.
+        NaN, NaN for a session that logged no temperature (a calibration at one
+        temperature: :attr:`has_temperature` is False).
     axes : dict of str to AxisModel
     not_identified : tuple of str
         Terms the data could not identify, held at nominal (sensitivity) or 0.
@@ -224,6 +229,11 @@ class Calibration:
     options: dict[str, Any] = field(default_factory=dict)
     provenance: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def has_temperature(self) -> bool:
+        """False for a calibration at one temperature (the session logged none)."""
+        return not all(math.isnan(v) for v in self.temperature_range_c)
+
     # ------------------------------------------------------------------ parameters
     def axis(self, axis: str) -> AxisSummary:
         """Zero-g offset, sensitivity and their temperature coefficients of one axis.
@@ -246,6 +256,8 @@ class Calibration:
         offset_tc_se = 1000.0 * _ratio_se(o1, m._cov(i_o1, i_o1), s0, var_s0, m._cov(i_o1, i_s0))
         sens_tc = 100.0 * s1 / s0 if s0 else math.nan
         sens_tc_se = 100.0 * _ratio_se(s1, m._cov(i_s1, i_s1), s0, var_s0, m._cov(i_s1, i_s0))
+        if not self.has_temperature:  # at one temperature: no coefficient, not a zero one
+            offset_tc = offset_tc_se = sens_tc = sens_tc_se = math.nan
         return AxisSummary(axis, o0, o0_se, s0, s0_se, offset_tc, offset_tc_se, sens_tc, sens_tc_se)
 
     def summary(self) -> pd.DataFrame:
@@ -343,7 +355,7 @@ class Calibration:
     def compensate(
         self,
         raw: ArrayLike,
-        temp_c: ArrayLike,
+        temp_c: ArrayLike | None,
         time_s: ArrayLike | None = None,
         extras: Mapping[str, ArrayLike] | None = None,
     ) -> NDArray[np.float64]:
@@ -353,8 +365,9 @@ class Calibration:
         ----------
         raw : array_like, shape (n, 3)
             Raw x, y, z output in session units.
-        temp_c : array_like, shape (n,)
-            Logged temperature, °C.
+        temp_c : array_like, shape (n,), or None
+            Logged temperature, °C. None for a model without temperature terms
+            (a calibration of a session that logged no temperature).
         time_s : array_like, shape (n,), optional
             Time, s; needed when the model has time-dependent terms (thermal lag,
             dT/dt, drift).
@@ -365,6 +378,11 @@ class Calibration:
         -------
         ndarray of float64, shape (n, 3)
             Acceleration in g. Rows with non-finite input are NaN.
+
+        Raises
+        ------
+        accelcore.ParameterError
+            ``temp_c`` is None and the model has temperature terms.
 
         Warns
         -----

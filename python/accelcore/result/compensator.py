@@ -11,9 +11,24 @@ from numpy.typing import ArrayLike, NDArray
 from accelcore._accelcore import compensate as _compensate
 from accelcore._accelcore import first_order_lag
 from accelcore.errors import ParameterError, TemperatureRangeWarning
-from accelcore.model import Basis, Features
+from accelcore.model import Basis, Features, Hinge, TemperatureRate
 
-__all__ = ["Compensator"]
+__all__ = ["Compensator", "needs_temperature"]
+
+
+def needs_temperature(basis: Basis) -> bool:
+    """Tell whether a basis reads the temperature (``dT^k``, its lag, ``dTdt``, a hinge on them).
+
+    Parameters
+    ----------
+    basis : Basis
+
+    Returns
+    -------
+    bool
+    """
+    inner = basis.inner if isinstance(basis, Hinge) else basis
+    return inner.temperature_order is not None or isinstance(inner, TemperatureRate)
 
 
 class _CarriedFeatures(Features):
@@ -79,7 +94,7 @@ class Compensator:
     def push(
         self,
         raw: ArrayLike,
-        temp_c: ArrayLike,
+        temp_c: ArrayLike | None,
         time_s: ArrayLike | None = None,
         extras: Mapping[str, ArrayLike] | None = None,
     ) -> NDArray[np.float64]:
@@ -87,6 +102,16 @@ class Compensator:
         raw_a = np.ascontiguousarray(raw, dtype=np.float64)
         if raw_a.ndim != 2 or raw_a.shape[1] != 3:
             raise ParameterError(f"raw must have shape (n, 3), got {raw_a.shape}")
+        if temp_c is None:
+            needing = [b.name for b in self._bases if needs_temperature(b)]
+            if needing:
+                err = ParameterError(
+                    f"temp_c is None, but the model has temperature terms ({', '.join(needing)}):"
+                    " pass the logged temperature, °C"
+                )
+                err.parameter = "temp_c"
+                raise err
+            temp_c = np.full(raw_a.shape[0], np.nan)  # read by no term of this model
         temp = np.ascontiguousarray(temp_c, dtype=np.float64).reshape(-1)
         if temp.shape[0] != raw_a.shape[0]:
             raise ParameterError(f"temp_c has {temp.shape[0]} values for {raw_a.shape[0]} rows")

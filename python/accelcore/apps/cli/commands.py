@@ -59,25 +59,32 @@ __all__ = [
 ]
 
 
-def _check_quality(session: Session) -> list[dict[str, Any]]:
-    """Run the data-quality checks; each finding is also a warning printed on stderr."""
-    return [dataclasses.asdict(issue) for issue in check_session(session, warn=True)]
+def _check_quality(
+    session: Session, window_c: tuple[float, float] | None = None
+) -> list[dict[str, Any]]:
+    """Run the data-quality checks; each finding is also a warning printed on stderr.
+
+    ``window_c``: the fit's window (default: the logged range).
+    """
+    issues = check_session(session, window_c="logged" if window_c is None else window_c)
+    return [dataclasses.asdict(issue) for issue in issues]
 
 
 def cmd_calibrate(args: argparse.Namespace, out: TextIO) -> int:
     """``accelcore calibrate``: summary, datasheet comparison, ``--save`` and ``--json``."""
-    if not args.window[0] < args.window[1]:
-        raise UsageError(f"--window LO HI needs LO < HI, got {args.window[0]:g} {args.window[1]:g}")
+    window: tuple[float, float] | None = None
+    if args.window is not None:
+        window = (args.window[0], args.window[1])
+        if not window[0] < window[1]:
+            raise UsageError(f"--window LO HI needs LO < HI, got {window[0]:g} {window[1]:g}")
     guard(session_inputs(args.session), [args.save, args.json])
     with Progress(3, enabled=not args.quiet) as bar:
         bar.step("reading")
         session = open_session(args.session, cache=not args.no_cache, instance=args.instance)
         bar.step("checking the data")
-        quality = _check_quality(session)
+        quality = _check_quality(session, window)
         bar.step("calibrating")
-        cal = accelcore.calibrate(
-            session, args.method, t_ref_c=args.t_ref, window_c=(args.window[0], args.window[1])
-        )
+        cal = accelcore.calibrate(session, args.method, t_ref_c=args.t_ref, window_c=window)
     text, records = datasheet_section(cal)
     if args.save:
         cal.save(args.save)

@@ -179,9 +179,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--window",
         nargs=2,
         type=_window,
-        default=(0.0, 60.0),
+        default=None,
         metavar=("LO", "HI"),
-        help="temperature window of the fit, °C (default: 0 60)",
+        help="temperature window of the fit, °C (default: the logged range; the seed "
+        "paper used 0 60)",
     )
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
     p.add_argument("--save", metavar="CAL.json", help="save the calibration file")

@@ -67,7 +67,7 @@ def read_dataflash(
     rate_hz: float | None = None,
     sensor: str | None = None,
     serial: str | None = None,
-    decimation_factor: int = 10,
+    decimation_factor: int | None = None,
     min_count: int = 1,
     settle_s: float = 0.0,
 ) -> Session:
@@ -149,7 +149,7 @@ def _read(
     rate_hz: float | None,
     sensor: str | None,
     serial: str | None,
-    decimation_factor: int,
+    decimation_factor: int | None,
     min_count: int,
     settle_s: float,
 ) -> Session:

@@ -24,7 +24,7 @@ from accelcore.errors import AccelcoreError, ParameterError, SessionFormatError
 from accelcore.input.format import gravity_of
 from accelcore.input.readers.common import _check_rate, _check_settle, _FloatArray
 from accelcore.input.readers.segment import _Chunk, _Layout, _segment
-from accelcore.input.session import Session
+from accelcore.input.session import Session, default_decimation_factor
 
 __all__ = ["FlightRows", "flight_session", "require"]
 
@@ -92,7 +92,7 @@ def flight_session(
     rate_hz: float | None,
     sensor: str | None,
     serial: str | None,
-    decimation_factor: int,
+    decimation_factor: int | None,
     min_count: int,
     settle_s: float,
 ) -> Session:
@@ -115,6 +115,7 @@ def flight_session(
         rows = itertools.chain([first], rows)
     else:
         rate = _check_rate(rate_hz)
+    factor = default_decimation_factor(rate) if decimation_factor is None else decimation_factor
     layout = _Layout(
         path=file,
         time_column=1,
@@ -141,7 +142,7 @@ def flight_session(
         chunks(),
         layout,
         orientation=label,
-        factor=decimation_factor,
+        factor=factor,
         rate_hz=rate,
         min_count=min_count,
         settle_s=settle,
@@ -153,5 +154,5 @@ def flight_session(
         sensor=sensor,
         serial=serial,
         path=None,
-        decimation_factor=decimation_factor,
+        decimation_factor=factor,
     )

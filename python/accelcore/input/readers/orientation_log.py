@@ -30,7 +30,7 @@ from accelcore.input.readers.common import (
     _time_scale,
 )
 from accelcore.input.readers.segment import _Chunk, _drop_unlabelled, _label_ids, _Layout, _segment
-from accelcore.input.session import Session
+from accelcore.input.session import Session, default_decimation_factor
 
 __all__ = ["read_orientation_log"]
 
@@ -67,7 +67,7 @@ def read_orientation_log(
     time_unit: str = "s",
     sensor: str | None = None,
     serial: str | None = None,
-    decimation_factor: int = 10,
+    decimation_factor: int | None = None,
     min_count: int = 1,
     settle_s: float = 0.0,
 ) -> Session:
@@ -98,8 +98,10 @@ def read_orientation_log(
         ``s``, ``ms``, ``us`` or ``ns``.
     sensor, serial : str, optional
         Datasheet name and serial, carried into the session.
-    decimation_factor : int, default 10
-        Raw samples per block.
+    decimation_factor : int, optional
+        Raw samples per block; default
+        :func:`~accelcore.input.session.default_decimation_factor` of ``rate_hz``
+        (blocks of about 0.5 s).
     min_count : int, default 1
         Blocks with fewer valid raw samples are dropped.
     settle_s : float, default 0
@@ -128,6 +130,7 @@ def read_orientation_log(
     file = _check_file(path)
     units = check_units(units, "units")
     rate = _check_rate(rate_hz)
+    factor = default_decimation_factor(rate) if decimation_factor is None else decimation_factor
     settle = _check_settle(settle_s)
     scale = _time_scale(time_unit)
     if delimiter not in DELIMITERS:
@@ -240,7 +243,7 @@ def read_orientation_log(
             chunks(),
             layout,
             orientation=None,
-            factor=decimation_factor,
+            factor=factor,
             rate_hz=rate,
             min_count=min_count,
             settle_s=settle,
@@ -252,5 +255,5 @@ def read_orientation_log(
         sensor=sensor,
         serial=serial,
         path=None,
-        decimation_factor=decimation_factor,
+        decimation_factor=factor,
     )

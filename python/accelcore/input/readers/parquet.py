@@ -29,7 +29,7 @@ from accelcore.input.readers.common import (
     _timestamp_seconds,
 )
 from accelcore.input.readers.segment import _Chunk, _drop_unlabelled, _label_ids, _Layout, _segment
-from accelcore.input.session import Session
+from accelcore.input.session import Session, default_decimation_factor
 
 __all__ = ["read_parquet"]
 
@@ -57,7 +57,7 @@ def read_parquet(
     time_unit: str = "s",
     sensor: str | None = None,
     serial: str | None = None,
-    decimation_factor: int = 10,
+    decimation_factor: int | None = None,
     min_count: int = 1,
     settle_s: float = 0.0,
 ) -> Session:
@@ -113,6 +113,7 @@ def read_parquet(
     file = _check_file(path)
     units = check_units(units, "units")
     rate = _check_rate(rate_hz)
+    factor = default_decimation_factor(rate) if decimation_factor is None else decimation_factor
     settle = _check_settle(settle_s)
     scale = _time_scale(time_unit)
     label = _one_orientation(orientation, orientation_column, "read_parquet")
@@ -210,7 +211,7 @@ def read_parquet(
         chunks(),
         layout,
         orientation=label,
-        factor=decimation_factor,
+        factor=factor,
         rate_hz=rate,
         min_count=min_count,
         settle_s=settle,
@@ -222,5 +223,5 @@ def read_parquet(
         sensor=sensor,
         serial=serial,
         path=None,
-        decimation_factor=decimation_factor,
+        decimation_factor=factor,
     )

@@ -30,7 +30,7 @@ from accelcore.input.readers.common import (
     _timestamp_seconds,
 )
 from accelcore.input.readers.segment import _RunBuilder
-from accelcore.input.session import Run, Session
+from accelcore.input.session import Run, Session, default_decimation_factor
 
 __all__ = ["read_tdms"]
 
@@ -67,7 +67,7 @@ def read_tdms(
     time_unit: str = "s",
     sensor: str | None = None,
     serial: str | None = None,
-    decimation_factor: int = 10,
+    decimation_factor: int | None = None,
     min_count: int = 1,
     settle_s: float = 0.0,
 ) -> Session:
@@ -177,15 +177,16 @@ def read_tdms(
             serial if serial is not None else (str(root["serial"]) if "serial" in root else None)
         )
         rate_used: float | None = rate_arg
+        factor: int | None = decimation_factor
         for g in chosen:
-            run, rate_g = _tdms_group(
+            run, rate_g, factor = _tdms_group(
                 file,
                 g,
                 names=names,
                 orientation=orientation,
                 rate_hz=rate_arg,
                 scale=scale,
-                factor=decimation_factor,
+                factor=factor,
                 min_count=min_count,
                 settle_s=settle,
             )
@@ -193,7 +194,7 @@ def read_tdms(
                 rate_used = rate_g
             if run is not None:
                 runs.append(run)
-    if not runs or rate_used is None:
+    if not runs or rate_used is None or factor is None:
         raise SessionFormatError(f"{file}: no run with valid data")
     return Session(
         runs=tuple(runs),
@@ -202,7 +203,7 @@ def read_tdms(
         sensor=sensor,
         serial=serial,
         path=None,
-        decimation_factor=decimation_factor,
+        decimation_factor=factor,
     )
 
 
@@ -214,11 +215,15 @@ def _tdms_group(
     orientation: str | Mapping[str, str] | None,
     rate_hz: float | None,
     scale: float,
-    factor: int,
+    factor: int | None,
     min_count: int,
     settle_s: float,
-) -> tuple[Run | None, float]:
-    """Decimate one TDMS group into a run; also return the rate used."""
+) -> tuple[Run | None, float, int]:
+    """Decimate one TDMS group into a run; also return the rate and the factor used.
+
+    Without a ``factor``, the default of the group's rate
+    (:func:`~accelcore.input.session.default_decimation_factor`).
+    """
     where = f"{file}#{g.name}"
     check_unique_names(where, [c.name for c in g.channels()], header_line=False)
     channels = {c.name: c for c in g.channels()}
@@ -281,6 +286,8 @@ def _tdms_group(
                 f"{where}: cannot infer the sample rate from the time channel; pass rate_hz="
             )
         rate = _nominal_rate(1.0 / float(np.median(steps)))
+    if factor is None:
+        factor = default_decimation_factor(rate)
     builder = _RunBuilder(
         label,
         source=where,
@@ -309,5 +316,5 @@ def _tdms_group(
         builder.push(t, temp, data, np.arange(a + 1, a + m + 1, dtype=np.int64))
     if n == 0:
         warnings.warn(f"{where}: empty group, skipped", DataQualityWarning, stacklevel=3)
-        return None, rate
-    return builder.finish(), rate
+        return None, rate, factor
+    return builder.finish(), rate, factor

@@ -38,7 +38,7 @@ def read_ulog(
     rate_hz: float | None = None,
     sensor: str | None = None,
     serial: str | None = None,
-    decimation_factor: int = 10,
+    decimation_factor: int | None = None,
     min_count: int = 1,
     settle_s: float = 0.0,
 ) -> Session:
