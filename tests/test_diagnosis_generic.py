@@ -171,3 +171,32 @@ def test_a_generic_term_is_saved_and_compensates_after_a_reload(tmp_path: object
     cols = [f"err_{a}_mg" for a in AXES]
     # The same model evaluated on the same data: equal to the file's printing precision.
     np.testing.assert_allclose(after[cols].to_numpy(), before[cols].to_numpy(), atol=1e-6)
+
+
+def test_a_session_without_temperature_is_diagnosed_at_one_temperature() -> None:
+    """No temperature column: the model has no temperature term, the diagnosis tries
+    none and says so, and the result compensates without a temperature."""
+    sim = simulate.arrays(
+        "ADXL335",
+        seed=33,
+        duration_h=0.2,
+        t_start_c=25.0,
+        t_end_c=25.2,
+        soak_min=0.0,
+        effects=(se.Misalignment(),),
+    )
+    runs = [
+        (r.orientation, {k: v for k, v in r.columns.items() if k != "temp_c"}) for r in sim.runs
+    ]
+    session = Session.from_arrays(
+        runs, units=sim.units, rate_hz=sim.rate_hz, sensor=sim.sensor, columns={"temperature": ""}
+    )
+    d = diagnose(session)
+    assert not any(t.basis.temperature_order for m in d.calibration.axes.values() for t in m.terms)
+    assert not any("temperature" in e or "dtemp" in e or e == "thermal_lag" for e in d.effects)
+    assert any("no temperature-driven effect" in w for w in d.warnings), d.warnings
+    # The misalignment is in the default model; the compensated gravity of a run of
+    # the session is its orientation's within the noise of a 2 Hz block (~1 mg).
+    run = session.runs[0]
+    acc = d.calibration.compensate(run.output, None)
+    assert np.allclose(acc.mean(axis=0), run.gravity_g, atol=2e-3), acc.mean(axis=0)

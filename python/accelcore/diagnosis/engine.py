@@ -211,7 +211,7 @@ class Engine:
             m = base.axes[a]
             s0, _ = m.value("gain", "1", a)
             if not s0:
-                nominal = nominal_sensitivity(session.units, session.sensor)
+                nominal = nominal_sensitivity(session.units, session.sensor, session.gravity_m_s2)
                 s0 = nominal[a_i] if nominal else 1.0
             self.scale[a] = float(s0)
             fixed = [
@@ -222,7 +222,8 @@ class Engine:
             self.fixed[a] = fixed
             y = self.output[:, a_i].copy()
             for term, c in fixed:
-                y -= c * self.column(term)
+                if c != 0.0:  # a term held at 0 adds nothing (its column may be NaN: no T)
+                    y -= c * self.column(term)
             # Centre with the base model's constant and own-gain terms (in every model's span).
             c_off, _ = m.value("offset", "1")
             y -= c_off

@@ -437,7 +437,9 @@ def diagnose(
             "temperature-driven effect is tried or reported"
         )
     if quality is None:
-        window = base.window_c if all(map(math.isfinite, base.window_c)) else None
+        window: tuple[float, float] | Literal["logged"] = (
+            base.window_c if all(map(math.isfinite, base.window_c)) else "logged"
+        )
         quality = check_session(session, window_c=window, warn=False)
     tried, skipped = _not_explained_by(tried, quality)
     warn += skipped

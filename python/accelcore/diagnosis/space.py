@@ -171,8 +171,7 @@ def spec_from_terms(axis: str, terms: Sequence[Term]) -> Spec | None:
             return None
     if ("offset", None) not in has or ("gain", axis) not in has:
         return None
-    if spec.offset_order < 1 or spec.gain_order < 1:
-        return None
+    # Orders 0: a calibration at one temperature (no temperature logged).
     return spec
 
 

@@ -191,8 +191,11 @@ def _bins(
 
 
 def _window(calibration: Calibration | None) -> tuple[float, float]:
+    """Return the temperatures binned: the window, else the range the fit used."""
     if calibration is not None and all(math.isfinite(v) for v in calibration.window_c):
         return calibration.window_c
+    if calibration is not None and all(math.isfinite(v) for v in calibration.temperature_range_c):
+        return calibration.temperature_range_c
     return _DEFAULT_WINDOW_C
 
 
