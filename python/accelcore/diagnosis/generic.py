@@ -60,6 +60,10 @@ KNOT_FRACTIONS = (0.25, 0.5, 0.75)
 #: when better by more than 1 %.
 FINE_KNOT_FRACTIONS = tuple(k / 8 for k in range(1, 8))
 
+#: The finest variant: sixteen pieces (a feature a few degrees wide over a wide
+#: window), tried where the eight-piece one cuts.
+FINEST_KNOT_FRACTIONS = tuple(k / 16 for k in range(1, 16))
+
 _RANGE = (0.05, 0.95)
 
 #: Observables driven by temperature (not tried when the temperature does not move).
@@ -150,13 +154,13 @@ def _key(t: Term) -> tuple[str, Basis, str | None]:
 
 def generic_variants(
     axis: str, spec: Spec, eng: Engine, skip: Container[str]
-) -> list[tuple[str, str, Spec, tuple[str, Spec] | None]]:
-    """Every (slot, observable) not in the model yet: its coarse variant, and its fine one.
+) -> list[tuple[str, str, Spec, list[tuple[str, Spec]]]]:
+    """Every (slot, observable) not in the model yet: its coarse variant, and finer ones.
 
-    Returns (family, label, spec, fine) with ``fine`` the (label, spec) of the
-    eight-piece variant (None when the observable has no more knots than the
-    coarse one). The coarse variants' columns are pushed once per observable (a
-    catalogue); a fine variant is cross-validated only when asked for.
+    Returns (family, label, spec, finer) with ``finer`` the (label, spec) of the
+    eight- and sixteen-piece variants, coarse to fine (only those with more knots
+    than the one before). The coarse variants' columns are pushed once per
+    observable (a catalogue); a finer variant is cross-validated only when asked for.
     ``skip`` holds observables not to try (e.g. temperature when it does not move).
     """
     have = {_key(t) for t in spec.terms(axis)}
@@ -167,14 +171,18 @@ def generic_variants(
     }
     sources: list[str | None] = [None]
     sources += [b for b in AXES if eng.gravity_values[AXES.index(b)] >= 2]
-    out: list[tuple[str, str, Spec, tuple[str, Spec] | None]] = []
+    out: list[tuple[str, str, Spec, list[tuple[str, Spec]]]] = []
     for name, inner in observables(eng):
         if name in skip:
             continue
         coarse = knots(eng, inner)
         if not coarse:
             continue
-        fine = knots(eng, inner, FINE_KNOT_FRACTIONS)
+        sets = [coarse]
+        for fractions in (FINE_KNOT_FRACTIONS, FINEST_KNOT_FRACTIONS):
+            ks = knots(eng, inner, fractions)
+            if len(ks) > len(sets[-1]):
+                sets.append(ks)
         eng.ensure_catalogue(
             name,
             [
@@ -192,7 +200,7 @@ def generic_variants(
             if event:
                 family = EVENT_PREFIX + family
             variants: list[tuple[str, Spec]] = []
-            for ks in (coarse, fine) if len(fine) > len(coarse) else (coarse,):
+            for ks in sets:
                 terms = [t for t in _slot_terms(inner, source, family, ks) if _key(t) not in have]
                 label = "knots " + "/".join(f"{k:g}" for k in ks) + f" {unit}"
                 if event:
@@ -200,5 +208,5 @@ def generic_variants(
                 else:
                     variants.append((label, replace(spec, generic=(*spec.generic, *terms))))
             first = variants[0]
-            out.append((family, first[0], first[1], variants[1] if len(variants) > 1 else None))
+            out.append((family, first[0], first[1], variants[1:]))
     return out

@@ -124,9 +124,7 @@ def fit_models(
     eng: Engine, specs: Mapping[str, Spec], axes: Sequence[str] = AXES
 ) -> tuple[dict[str, AxisModel], list[str], list[str]]:
     """Fit the chosen terms of ``axes``: the models, the names held fixed, and notes."""
-    nominal = nominal_sensitivity(
-        eng.session.units, eng.session.sensor, eng.session.gravity_m_s2
-    )
+    nominal = nominal_sensitivity(eng.session.units, eng.session.sensor, eng.session.gravity_m_s2)
     models: dict[str, AxisModel] = {}
     fixed_all: list[str] = []
     notes: list[str] = []

@@ -178,12 +178,14 @@ class _Selection:
         tried: list[_Tried] = []
         cur = self.cv_cur[axis].rms_out
         skip = self.rules.skip_observables
-        for family, label, s, fine in generic_variants(axis, spec, self.eng, skip):
+        for family, label, s, finer in generic_variants(axis, spec, self.eng, skip):
             cv = self.eng.cv(axis, s.terms(axis))
             tried.append((family, label, cv, s))
-            cut = 1.0 - cv.rms_out / cur if cur > 0 else 0.0
-            if fine is not None and cut >= 0.5 * self.rules.min_improvement:
-                tried.append((family, fine[0], self.eng.cv(axis, fine[1].terms(axis)), fine[1]))
+            for fine_label, fine in finer:
+                if not cur > 0 or 1.0 - cv.rms_out / cur < 0.5 * self.rules.min_improvement:
+                    break  # the coarser one does not cut: no finer one is tried
+                cv = self.eng.cv(axis, fine.terms(axis))
+                tried.append((family, fine_label, cv, fine))
         return tried
 
     def _candidates(self, step: int) -> dict[str, list[Candidate]]:
