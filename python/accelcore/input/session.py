@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any, Protocol, TypedDict
 
 import numpy as np
+import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from accelcore import core
@@ -40,7 +41,7 @@ from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
 from accelcore.input.consistency import check_labels, check_rate
 from accelcore.input.defaults import check_gravity, default_decimation_factor, fill_unlogged
 from accelcore.input.format import SessionFormat, check_units, gravity_of
-from accelcore.input.frames import run_table
+from accelcore.input.frames import frame_columns, run_table
 from accelcore.input.run import Run, RunStats
 
 __all__ = [
@@ -230,6 +231,10 @@ class Session:
             orientation, data = item
             gravity = gravity_of(str(orientation))
             label = f"run {i} ({str(orientation).strip().upper()})"
+            if not isinstance(data, (Mapping, pd.DataFrame)):
+                # Any other table (polars, pyarrow, ...): its columns, through the one
+                # adapter (which refuses lazy frames and things that are not tables).
+                data = dict(zip(*frame_columns(data, label), strict=True))
             data, names, has_temperature = fill_unlogged(data, columns, rate_hz)
             logged.add(has_temperature)
             if len(logged) > 1:
