@@ -67,6 +67,8 @@ def test_a_user_path_runs_as_written(name: str, folder: Path) -> None:
     cal = json.loads((folder / "cal.json").read_text())
     assert cal["body"]["format"].startswith("accelcore-calibration/")
     if name == "px4":
+        diagnosed = json.loads((folder / "diagnosed.json").read_text())
+        assert diagnosed["body"]["method"] == "diagnosed"
         lines = (folder / "tc_params.txt").read_text().splitlines()
         assert any("TC_A0_X0_2" in line for line in lines)
     elif name == "ardupilot":

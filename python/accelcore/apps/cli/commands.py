@@ -134,7 +134,7 @@ def cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
         diagnosis = importlib.import_module("accelcore.diagnosis")
     except ImportError as exc:
         raise UsageError(f"diagnosis is not available in this installation ({exc})") from exc
-    guard(session_inputs(args.session), [args.json])
+    guard(session_inputs(args.session), [args.json, args.save])
     with Progress(3, enabled=not args.quiet) as bar:
         bar.step("reading")
         session = open_session(args.session, cache=not args.no_cache, instance=args.instance)
@@ -142,6 +142,8 @@ def cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
         quality = _check_quality(session)
         bar.step("diagnosing")
         result = diagnosis.diagnose(session)
+    if args.save:
+        result.calibration.save(args.save)
     if args.json:
         body = {
             "session": str(args.session),

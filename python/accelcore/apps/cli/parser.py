@@ -47,6 +47,7 @@ _EPILOGS = {
   Conventions and signs: docs/interop.md.""",
     "diagnose": """example:
   accelcore diagnose examples/adxl335-demo/generated --json diagnosis.json
+  accelcore diagnose chamber/ --save diagnosed.json   (then compensate or export it)
   accelcore diagnose chamber.bin --instance 1     (an ArduPilot log's second IMU)""",
     "bulk": """example:
   accelcore bulk /data/chamber-archive -o /data/calibrations --jobs 2
@@ -245,6 +246,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="session folder (holding session.toml), or a PX4 .ulg / ArduPilot .bin log",
     )
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
+    p.add_argument(
+        "--save",
+        metavar="CAL.json",
+        help="save the diagnosed calibration (with the added effects; compensate and "
+        "export read it)",
+    )
     _add_instance(p)
     _add_no_cache(p)
     p.set_defaults(func=commands.cmd_diagnose, data_path="session")
