@@ -11,7 +11,7 @@ HYPOTHESIS_PROFILE ?= dev
 export PYTHONDONTWRITEBYTECODE := 1
 
 .DEFAULT_GOAL := help
-.PHONY: help venv dev demo test test-rust test-py lint fmt bench clean
+.PHONY: wheel help venv dev demo test test-rust test-py lint fmt bench clean
 
 help:  ## List the targets
 	@grep -E '^[a-z-]+:.*##' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
@@ -27,6 +27,11 @@ venv: $(STAMP)  ## Create .venv with every dependency from the registries
 
 dev: $(STAMP)  ## Build the extension in release mode into .venv
 	VIRTUAL_ENV=$(abspath $(VENV)) $(VENV)/bin/maturin develop --release -q
+
+wheel: $(STAMP)  ## abi3 manylinux2014 wheel and the sdist into dist/ (maturin; zig from PyPI links for old glibc)
+	$(VENV)/bin/pip install -q "ziglang>=0.11"
+	VIRTUAL_ENV=$(abspath $(VENV)) PATH=$(abspath $(VENV))/bin:$$PATH $(VENV)/bin/maturin build --release --zig --compatibility manylinux2014 --out dist
+	VIRTUAL_ENV=$(abspath $(VENV)) $(VENV)/bin/maturin sdist --out dist
 
 demo: dev  ## Calibrate and diagnose the bundled example session and print the result
 	$(PY) -m accelcore demo
