@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -227,6 +228,27 @@ def test_offsets_scaled_by_sensitivity() -> None:
     }
     out = export_px4(calibration(axes, units="V"))
     assert out.params["TC_A0_X1_0"][0] == pytest.approx(2e-3 * G0, rel=1e-9)
+
+
+def test_exports_use_the_sessions_local_gravity() -> None:
+    """1 g of the calibration is the local gravity the part sat in (``gravity_m_s2``): the
+    m/s² the exports write scale with it, exactly."""
+    axes = {
+        a: axis_model(
+            a, [term("offset", "1"), term("offset", "dT^1"), term("gain", "1", a)], [1.5, 6e-4, 0.3]
+        )
+        for a in "xyz"
+    }
+    standard = calibration(axes, units="V")
+    local = dataclasses.replace(standard, options={**standard.options, "gravity_m_s2": 9.78})
+    ratio = 9.78 / G0
+    for key in ("TC_A0_X1_0", "TC_A0_X1_2"):
+        assert export_px4(local).params[key][0] == pytest.approx(
+            export_px4(standard).params[key][0] * ratio, rel=1e-12
+        )
+    k_std = export_imucal(tilted_cal()).K_a
+    k_loc = export_imucal(dataclasses.replace(tilted_cal(), options={"gravity_m_s2": 9.78})).K_a
+    np.testing.assert_allclose(k_loc, k_std / ratio, rtol=1e-12)
 
 
 # ----------------------------------------------------------------------------- imucal

@@ -69,6 +69,12 @@ class _HeldFeatures(Features):
         return self.temperature_c
 
 
+def local_gravity(cal: Calibration) -> float:
+    """Return the m/s² of 1 g in the calibration: the session's local gravity, else standard."""
+    value = cal.options.get("gravity_m_s2")
+    return float(value) if isinstance(value, (int, float)) and value > 0 else STANDARD_GRAVITY
+
+
 def model_response(cal: Calibration, features: Features) -> tuple[FloatArray, FloatArray]:
     """Offset and gain matrix of the model on each sample.
 
@@ -252,7 +258,8 @@ def fit_cubic_offsets(
     sens = np.diag(gain_0).copy()
     if not np.all(sens != 0):
         raise InsufficientDataError("a sensitivity at T_ref is zero: offsets cannot be scaled")
-    scale = STANDARD_GRAVITY / sens
+    g0 = local_gravity(cal)
+    scale = g0 / sens
 
     def offset_m_s2(offset: FloatArray, gain: FloatArray) -> FloatArray:
         return scale * (offset + (gain - gain_0) @ g)
@@ -275,7 +282,7 @@ def fit_cubic_offsets(
         lsq = LeastSquares(4, column_names=["1", "dT", "dT^2", "dT^3"])
         lsq.push(design, target[:, a_i])
         scaled = lsq.finish().coefficients
-        resid_mg = (design @ scaled - target[:, a_i]) / STANDARD_GRAVITY * 1000.0
+        resid_mg = (design @ scaled - target[:, a_i]) / g0 * 1000.0
         c = scaled / half ** np.arange(4)
         axes.append(
             CubicOffset(

@@ -24,10 +24,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore.constants import STANDARD_GRAVITY
 from accelcore.errors import InsufficientDataError
 from accelcore.files import atomic_write
-from accelcore.outputs.exports._model import describe, model_at
+from accelcore.outputs.exports._model import describe, local_gravity, model_at
 from accelcore.result.calibration import Calibration
 
 __all__ = ["IMUCAL_FORMAT_VERSION", "ImucalExport", "export_imucal"]
@@ -131,14 +130,15 @@ def export_imucal(cal: Calibration, *, temperature_c: float | None = None) -> Im
     """
     t = cal.t_ref_c if temperature_c is None else float(temperature_c)
     offset, gain = model_at(cal, t)
-    scaled = gain / STANDARD_GRAVITY
+    g0 = local_gravity(cal)
+    scaled = gain / g0
     k = np.sqrt(np.sum(scaled**2, axis=1))
     if not np.all(k > 0):
         raise InsufficientDataError(f"an axis has no sensitivity at {t} °C: no imucal scale")
     offset_change, sens_change = _changes(cal, t, offset, gain)
     comment = (
         f"accelcore calibration of {describe(cal)} held at {t:.2f} °C; raw units "
-        f"{cal.units!r}, output m/s^2 with g0 = {STANDARD_GRAVITY} m/s^2. Gyroscope fields "
+        f"{cal.units!r}, output m/s^2 with g0 = {g0} m/s^2. Gyroscope fields "
         "K_g, R_g (identity), K_ga, b_g (zero) are placeholders: accelcore calibrates "
         "accelerometers only."
     )
