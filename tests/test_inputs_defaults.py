@@ -366,3 +366,39 @@ def test_tofupilot_log_gets_factor_one_and_its_logged_range(tmp_path: Path) -> N
     assert lo == pytest.approx(float(temps.min())) and hi == pytest.approx(float(temps.max()))
     assert cal.window_c == (-math.inf, math.inf)
     assert sum(m.n_samples for m in cal.axes.values()) == 3 * temps.size
+
+
+def test_compensate_a_log_with_a_sample_index_and_no_temperature(tmp_path: Path) -> None:
+    """`accelcore compensate --session`: a session whose time column is a sample index
+    (`time_unit = "sample"`) and which logs no temperature (`temperature = ""`): the
+    output keeps the index, has no temperature column, and each run compensates to its
+    orientation's gravity within the noise of one 20 Hz sample (~5 mg at 3 sigma)."""
+    import io
+
+    import pandas as pd
+
+    sim = simulate.arrays(
+        "ADXL335", seed=4, duration_h=0.1, t_start_c=25.0, t_end_c=25.2, soak_min=0.0
+    )
+    folder = tmp_path / "s"
+    folder.mkdir()
+    toml = (
+        'format = "accelcore-session/1"\nsensor = "ADXL335"\nunits = "V"\nrate_hz = 20.0\n'
+        'time_unit = "sample"\n\n[columns]\ntime = "n"\ntemperature = ""\n\n'
+    )
+    for r in sim.runs:
+        name = r.orientation.replace("+", "p").replace("-", "m") + ".csv"
+        frame = {"n": np.arange(r.columns["x"].size)} | {a: r.columns[a] for a in "xyz"}
+        pd.DataFrame(frame).to_csv(folder / name, index=False)
+        toml += f'[[run]]\nfile = "{name}"\norientation = "{r.orientation}"\n\n'
+    (folder / "session.toml").write_text(toml)
+    cal = tmp_path / "cal.json"
+    assert main(["calibrate", str(folder), "--save", str(cal)], stdout=io.StringIO()) == 0
+    out = tmp_path / "out.csv"
+    argv = ["compensate", str(cal), str(folder / "OXp.csv"), "--session", str(folder)]
+    assert main([*argv, "-o", str(out)], stdout=io.StringIO()) == 0
+    result = pd.read_csv(out)
+    assert list(result.columns) == ["n", "x_g", "y_g", "z_g"]
+    assert result["n"].iloc[-1] == len(result) - 1
+    mean = result[["x_g", "y_g", "z_g"]].mean().to_numpy()
+    np.testing.assert_allclose(mean, [1.0, 0.0, 0.0], atol=5e-3)

@@ -55,7 +55,12 @@ _FLIGHT_COLUMNS = {
 
 def _session_format(folder: str) -> dict[str, Any]:
     fmt = SessionFormat.read(folder, check_files=False)
-    return {"delimiter": fmt.delimiter, "time_unit": fmt.time_unit, "columns": dict(fmt.columns)}
+    return {
+        "delimiter": fmt.delimiter,
+        "time_unit": fmt.time_unit,
+        "columns": dict(fmt.columns),
+        "time_scale": fmt.time_scale_to_s,
+    }
 
 
 def _parse_column_options(items: Sequence[str]) -> dict[str, str]:
@@ -70,8 +75,12 @@ def _parse_column_options(items: Sequence[str]) -> dict[str, str]:
     return columns
 
 
-def _layout(args: argparse.Namespace) -> tuple[dict[str, str], str, str]:
-    """Column names by role, delimiter and time unit, from --session and the options."""
+def _layout(args: argparse.Namespace) -> tuple[dict[str, str], str, float]:
+    """Column names by role, delimiter and seconds per time unit, from --session and options.
+
+    A session's ``time_unit = "sample"`` (a sample index) gives ``1 / rate_hz``; its
+    ``temperature = ""`` (not logged) leaves the temperature role out.
+    """
     fmt: dict[str, Any] = {"delimiter": ",", "time_unit": "s", "columns": {}}
     if args.session:
         fmt = _session_format(args.session)
@@ -79,15 +88,18 @@ def _layout(args: argparse.Namespace) -> tuple[dict[str, str], str, str]:
         fmt["delimiter"] = args.delimiter
     if args.time_unit is not None:
         fmt["time_unit"] = args.time_unit
+        fmt.pop("time_scale", None)
     fmt["columns"].update(_parse_column_options(args.column))
     if fmt["delimiter"] not in _DELIMITERS:
         raise UsageError(f"delimiter must be ',', '\\t' or ';', got {fmt['delimiter']!r}")
-    if fmt["time_unit"] not in _TIME_UNITS:
+    if "time_scale" not in fmt and fmt["time_unit"] not in _TIME_UNITS:
         raise UsageError(f"time unit must be one of {', '.join(_TIME_UNITS)}")
+    scale = float(fmt.get("time_scale", _TIME_UNITS.get(fmt["time_unit"], 1.0)))
     names = {**_DEFAULT_COLUMNS, **fmt["columns"]}
-    if len(set(names.values())) < len(names):
+    used = [v for v in names.values() if v]
+    if len(set(used)) < len(used):
         raise UsageError(f"two columns share one name: {names}; each role needs its own column")
-    return names, fmt["delimiter"], fmt["time_unit"]
+    return names, fmt["delimiter"], scale
 
 
 def _compensate_chunks(
@@ -104,9 +116,14 @@ def _compensate_chunks(
         with warnings.catch_warnings():
             # The command reports the total once at the end instead.
             warnings.simplefilter("ignore", TemperatureRangeWarning)
+            temp = (
+                frame[names["temperature"]].to_numpy(dtype=np.float64)
+                if names["temperature"]
+                else None
+            )
             g = comp.push(
                 frame[[names["x"], names["y"], names["z"]]].to_numpy(dtype=np.float64),
-                frame[names["temperature"]].to_numpy(dtype=np.float64),
+                temp,
                 frame[names["time"]].to_numpy(dtype=np.float64) * time_scale,
                 {k: frame[k].to_numpy(dtype=np.float64) for k in extra_names},
             )
@@ -197,9 +214,11 @@ class _CsvSink:
     def __init__(self, fh: IO[bytes], names: Sequence[str]) -> None:
         self.fh = fh
         fh.write((",".join(names) + "\n").encode("utf-8"))
+        # Time, then temperature when it was logged, then the three accelerations.
+        self.fmt = ["%.10g", "%.6g"][: len(names) - 3] + ["%.7f"] * 3
 
     def write(self, block: NDArray[np.float64]) -> None:
-        np.savetxt(self.fh, block, delimiter=",", fmt=["%.10g", "%.6g"] + ["%.7f"] * 3)
+        np.savetxt(self.fh, block, delimiter=",", fmt=self.fmt)
 
     def close(self) -> None:
         """Nothing to finish: every line is written."""
@@ -244,7 +263,7 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
     pq = None
     if Path(args.output).suffix.lower() == ".parquet":
         pq = need("pyarrow.parquet", "parquet", f"writing {args.output} (Parquet)")
-    names, delimiter, time_unit = (_FLIGHT_COLUMNS, ",", "s") if flight else _layout(args)
+    names, delimiter, time_scale = (_FLIGHT_COLUMNS, ",", 1.0) if flight else _layout(args)
     check_input_file(source, "log")  # a FIFO would block, a device never end
     cal = Calibration.load(args.calibration)
     extra_names = sorted(
@@ -255,7 +274,7 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
             f"{source}: the calibration needs column(s) {', '.join(extra_names)}, "
             "which a flight log does not hold"
         )
-    needed = [names[k] for k in COLUMN_KEYS] + extra_names
+    needed = [names[k] for k in COLUMN_KEYS if names[k]] + extra_names
     chunks: Generator[pd.DataFrame]
     if flight:
         chunks = _flight_chunks(source, cal, args.instance, args.chunk_rows)
@@ -265,18 +284,15 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
         chunks = _text_chunks(source, delimiter, needed, args.chunk_rows)
     target = require_folder(args.output)
     n_rows = n_out_of_range = n_nan = 0
-    out_names = [names["time"], names["temperature"], "x_g", "y_g", "z_g"]
+    kept = [names["time"], *([names["temperature"]] if names["temperature"] else [])]
+    out_names = [*kept, "x_g", "y_g", "z_g"]
     # Written chunk by chunk (the log may not fit in memory), replaced atomically at the end.
     bar = Progress(None, what="rows compensated", enabled=not args.quiet)
     with contextlib.closing(chunks), contextlib.closing(bar), atomic_open(target) as fh:
         sink = _CsvSink(fh, out_names) if pq is None else _ParquetSink(pq, fh, out_names)
         try:
-            for frame, g, n_out in _compensate_chunks(
-                cal, chunks, names, _TIME_UNITS[time_unit], extra_names
-            ):
-                block = np.column_stack(
-                    [frame[names["time"]].to_numpy(), frame[names["temperature"]].to_numpy(), g]
-                )
+            for frame, g, n_out in _compensate_chunks(cal, chunks, names, time_scale, extra_names):
+                block = np.column_stack([*(frame[c].to_numpy() for c in kept), g])
                 sink.write(block)
                 n_rows += len(frame)
                 bar.advance(len(frame))
