@@ -1,12 +1,13 @@
-"""Progress of a long command on stderr: the one progress bar of the applications.
+"""Progress of a long command on stderr: the one progress bar of the applications (tqdm).
 
-A :class:`Progress` draws a one-line bar on a terminal and erases it when the
-work ends, so the command's results (on stdout, or its JSON) never hold a
-trace of it. It draws nothing at all when the stream is not a terminal, when
-disabled (``--quiet``), or when the work ends within :data:`DELAY_S` (a small
-input is never cluttered). A background thread keeps the elapsed time moving
-while one long step runs. ``bulk`` also asks for plain log lines, one per
-session, when the stream is not a terminal (a log file of the archive's run).
+A :class:`Progress` draws a tqdm bar on a terminal and erases it when the work
+ends, so the command's results (on stdout, or its JSON) never hold a trace of it.
+It draws nothing at all when the stream is not a terminal, when disabled
+(``--quiet``), or when the work ends within :data:`DELAY_S` (a small input is
+never cluttered: tqdm's own ``delay``). A background thread refreshes the bar
+while one long step runs, so its elapsed time moves. ``bulk`` also asks for plain
+log lines, one per session, when the stream is not a terminal (a log file of the
+archive's run).
 
 Part of the applications room: imports nothing of accelcore.
 """
@@ -18,17 +19,17 @@ import sys
 import threading
 import time
 from types import TracebackType
-from typing import Self, TextIO
+from typing import Never, Self, TextIO
+
+from tqdm import tqdm
 
 __all__ = ["DELAY_S", "Progress"]
 
 #: Seconds of work before a bar first shows (a small input never shows one).
 DELAY_S = 1.0
 
-#: Seconds between two redraws of the elapsed time while one step runs.
+#: Seconds between two refreshes of the bar while one step runs.
 TICK_S = 0.25
-
-_WIDTH = 30
 
 
 class Progress:
@@ -67,15 +68,32 @@ class Progress:
         self.total, self.what, self.done, self.step_name = total, what, 0, ""
         self.stream = stream or sys.stderr
         self.start = time.monotonic()
-        self.delay_s = DELAY_S if delay_s is None else delay_s
         self.rate = rate
+        self.delay_s = DELAY_S if delay_s is None else delay_s
         self.tty = enabled and _isatty(self.stream)
         self.log_lines = enabled and log_lines and not self.tty
-        self._shown = False
         self._lock = threading.Lock()
         self._stop = threading.Event()
+        self._bar: tqdm[Never] | None = None
         self._ticker: threading.Thread | None = None
         if self.tty:
+            bar: tqdm[Never] = tqdm(
+                total=total,
+                desc=what or None,
+                unit=" " + what if total is None and what else "",
+                file=self.stream,
+                position=0,
+                delay=self.delay_s,
+                leave=False,
+                ncols=79,
+                mininterval=0.0,
+                unit_scale=total is None,
+                ascii=".#",
+                bar_format=None if rate or total is None else "{desc}[{bar}] {n}/{total}{postfix}",
+            )
+            if total is None:
+                bar.desc = ""
+            self._bar = bar
             self._ticker = threading.Thread(target=self._tick, name="progress", daemon=True)
             self._ticker.start()
 
@@ -95,8 +113,12 @@ class Progress:
         with self._lock:
             if self.step_name:
                 self.done += 1
+                if self._bar is not None:
+                    self._bar.update(1)
             self.step_name = name
-            self._draw()
+            if self._bar is not None:
+                self._bar.set_postfix_str(name, refresh=False)
+                self._refresh()
 
     def advance(self, n: int = 1, *, item: str = "", status: str = "") -> None:
         """Count ``n`` more steps (or items) done; ``item`` and ``status`` go to log lines."""
@@ -104,54 +126,37 @@ class Progress:
             self.done += n
             if self.log_lines:
                 self._line(item, status)
-            self._draw()
+            if self._bar is not None:
+                self._bar.update(n)
+                self._refresh()
 
     def close(self) -> None:
-        """Stop the ticker and erase the bar (or end the line of a finished bar)."""
+        """Stop the refresher and erase the bar (tqdm clears its line: ``leave=False``)."""
         self._stop.set()
         if self._ticker is not None:
             self._ticker.join()
             self._ticker = None
         with self._lock:
-            if self._shown:
-                self.stream.write("\r" + " " * 79 + "\r")
-                self.stream.flush()
-                self._shown = False
+            if self._bar is not None:
+                self._bar.close()
+                self._bar = None
 
     # ------------------------------------------------------------------ drawing
     def _tick(self) -> None:
         while not self._stop.wait(TICK_S):
             with self._lock:
-                self._draw()
+                self._refresh()
 
-    def _elapsed(self) -> float:
-        return time.monotonic() - self.start
+    def _refresh(self) -> None:
+        """Redraw the bar once the delay has passed (before it, draw nothing at all)."""
+        if self._bar is not None and time.monotonic() - self.start >= self.delay_s:
+            self._bar.refresh()
 
     def _speed(self) -> tuple[float, float]:
-        elapsed = self._elapsed()
+        elapsed = time.monotonic() - self.start
         per_s = self.done / elapsed if elapsed > 0 else 0.0
         left = ((self.total or 0) - self.done) / per_s if per_s > 0 else math.nan
         return per_s, left
-
-    def _draw(self) -> None:
-        if not self.tty or self._stop.is_set() or self._elapsed() < self.delay_s:
-            return
-        if self.total is None:
-            text = f"{self.done:,} {self.what}".strip()
-        else:
-            filled = int(_WIDTH * min(self.done, self.total) / max(self.total, 1))
-            bar = f"[{'#' * filled}{'.' * (_WIDTH - filled)}]"
-            text = f"{self.what + ' ' if self.what else ''}{bar} {self.done}/{self.total}"
-        if self.step_name:
-            text += f" {self.step_name}"
-        if self.rate:
-            per_s, left = self._speed()
-            text += f" {per_s * 60:.1f}/min, {left:.0f} s left"
-        else:
-            text += f", {self._elapsed():.0f} s"
-        self.stream.write("\r" + text[:79].ljust(79))
-        self.stream.flush()
-        self._shown = True
 
     def _line(self, item: str, status: str) -> None:
         per_s, left = self._speed()
