@@ -21,6 +21,7 @@ from accelcore.model import AXES, Hinge, Term, base_terms
 from accelcore.result.calibration import Calibration
 from accelcore.simulate import effects as se
 from accelcore.simulate.chain import RunState
+from test_diagnosis import make_session
 
 PAPER_TERMS = {a: base_terms(a) for a in AXES}
 
@@ -52,26 +53,6 @@ class RatiometricGain(se.SupplySensitivity):
         ratio = self.supply_v(state.time_s, state.orientation) / self.nominal_v - 1.0
         sens = np.asarray(state.truth.sensitivity_per_g, dtype=np.float64)
         state.output = state.output + state.specific_force_g * sens * ratio[:, None]
-
-
-def make_session(
-    effects: Sequence[object], seed: int, *, duration_h: float = 1.0, **kw: object
-) -> Session:
-    sim = simulate.arrays(
-        "ADXL335",
-        seed=seed,
-        duration_h=duration_h,
-        effects=effects,  # type: ignore[arg-type]
-        **kw,  # type: ignore[arg-type]
-    )
-    se.attach_extra_columns(sim, effects)
-    return Session.from_arrays(
-        [(r.orientation, r.columns) for r in sim.runs],
-        units=sim.units,
-        rate_hz=sim.rate_hz,
-        sensor=sim.sensor,
-        decimation_factor=10,
-    )
 
 
 def validation_rms_mg(cal: Calibration, session: Session) -> float:

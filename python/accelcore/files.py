@@ -22,7 +22,7 @@ from typing import BinaryIO
 
 from accelcore.errors import AccelcoreIOError, OutputConflictError
 
-__all__ = ["atomic_open", "atomic_write", "check_input_file", "check_outputs"]
+__all__ = ["atomic_open", "atomic_write", "check_input_file", "check_outputs", "file_kind"]
 
 _PathLike = str | os.PathLike[str]
 
@@ -178,6 +178,20 @@ def atomic_write(path: str | os.PathLike[str], data: bytes | str, *, mode: int =
         fh.write(payload)
 
 
+def file_kind(mode: int) -> str:
+    """Name what a path that is not a regular file is, from its ``st_mode``.
+
+    ``"a folder"``, ``"a FIFO (named pipe)"``, ``"a device"`` or ``"not a regular file"``.
+    """
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    return "not a regular file"
+
+
 def check_input_file(path: _PathLike, what: str, *, max_bytes: int | None = None) -> None:
     """Refuse an input that is not a regular file, or larger than ``max_bytes``, before opening it.
 
@@ -209,16 +223,7 @@ def check_input_file(path: _PathLike, what: str, *, max_bytes: int | None = None
     else:
         mode = st.st_mode
         if not stat.S_ISREG(mode):
-            kind = (
-                "a folder"
-                if stat.S_ISDIR(mode)
-                else "a FIFO (named pipe)"
-                if stat.S_ISFIFO(mode)
-                else "a device"
-                if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
-                else "not a regular file"
-            )
-            reason = f"cannot read {what}: it is {kind}, not a file"
+            reason = f"cannot read {what}: it is {file_kind(mode)}, not a file"
         elif max_bytes is not None and st.st_size > max_bytes:
             reason = (
                 f"not read: {st.st_size} bytes, far more than a {what} holds (at most {max_bytes})"

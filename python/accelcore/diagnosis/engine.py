@@ -265,7 +265,7 @@ class Engine:
             # Every fold's training data must keep each axis' gravity at two values or more
             # (offset and sensitivity told apart) wherever the whole session does.
             for a_i in range(3):
-                need = min(2, np.unique(self.gravity[:, a_i]).size)
+                need = min(2, self.gravity_values[a_i])
                 for k in np.unique(part_fold):
                     train = self.gravity[sample_fold != k, a_i]
                     if train.size == 0 or np.unique(train).size < need:

@@ -9,23 +9,21 @@ render them as aligned terminal text, :func:`value_se_text` writes a value with 
 standard error to the precision the error supports. Used by
 :class:`~accelcore.diagnosis.result.Diagnosis` and the HTML session report.
 
-May import: foundation, model. Steps and structures are read through their
-attributes only.
+May import: foundation, model, and :mod:`~accelcore.diagnosis.steps`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from accelcore.model import AXES
 
-if TYPE_CHECKING:
-    from .result import Step, Structure
+from .steps import Step, Structure
 
 __all__ = [
     "EFFECT_COLUMNS",

@@ -38,7 +38,7 @@ from accelcore.constants import (
     UNITS,
 )
 from accelcore.errors import AccelcoreIOError, SessionFormatError
-from accelcore.files import check_input_file
+from accelcore.files import check_input_file, file_kind
 
 __all__ = [
     "TOML_NAME",
@@ -520,16 +520,7 @@ def _check_run_file(file: Path, where: str) -> None:
     else:
         if stat.S_ISREG(mode):
             return
-        kind = (
-            "a folder"
-            if stat.S_ISDIR(mode)
-            else "a FIFO (named pipe)"
-            if stat.S_ISFIFO(mode)
-            else "a device"
-            if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
-            else "not a regular file"
-        )
-        reason = f"run file is {kind}, not a log file"
+        reason = f"run file is {file_kind(mode)}, not a log file"
     err = AccelcoreIOError(f"{file}: {reason} ({where})")
     err.path = str(file)
     raise err

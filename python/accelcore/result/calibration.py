@@ -27,14 +27,13 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from accelcore import datasheets
-from accelcore.constants import STANDARD_GRAVITY, UNITS_PER_G
 from accelcore.errors import AccelcoreError, CalibrationFileError, InsufficientDataError
 from accelcore.files import check_outputs
 from accelcore.model import AXES, Basis, TemperaturePower, Term
 from accelcore.result import datasheet
 from accelcore.result.calibration_file import CALIBRATION_FORMAT, read_body, write_body
 from accelcore.result.compensator import Compensator
+from accelcore.result.datasheet import nominal_sensitivity
 from accelcore.result.frame import compensated_frame
 from accelcore.result.summary import AxisSummary
 
@@ -46,30 +45,6 @@ __all__ = [
     "Compensator",
     "nominal_sensitivity",
 ]
-
-
-def nominal_sensitivity(
-    units: str, sensor: str | None, gravity_m_s2: float = STANDARD_GRAVITY
-) -> tuple[float, float, float] | None:
-    """Nominal sensitivity per axis in ``units``/g, or None when unknown.
-
-    ``g`` gives 1, ``mg`` 1000, ``m/s2`` the local gravity ``gravity_m_s2``
-    (default standard gravity, 9.80665); ``V`` and ``LSB`` take the datasheet
-    typical of ``sensor``.
-    """
-    if units in UNITS_PER_G:
-        return (UNITS_PER_G[units],) * 3
-    if units == "m/s2":
-        return (gravity_m_s2,) * 3
-    if sensor:
-        try:
-            sheet = datasheets.load(sensor)
-        except (KeyError, ValueError):
-            return None
-        typ = sheet.typical("sensitivity")
-        if all(t is not None for t in typ):
-            return (float(typ[0]), float(typ[1]), float(typ[2]))  # type: ignore[arg-type]
-    return None
 
 
 @dataclass(frozen=True)

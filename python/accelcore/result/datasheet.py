@@ -1,4 +1,4 @@
-"""A calibration against its part's datasheet, laid out as the paper's Tables 3/4 and 5/6."""
+"""A calibration against its datasheet (the paper's Tables 3/4, 5/6); nominal sensitivity."""
 
 from __future__ import annotations
 
@@ -9,10 +9,11 @@ from typing import Any
 import pandas as pd
 
 from accelcore import datasheets
+from accelcore.constants import STANDARD_GRAVITY, UNITS_PER_G
 from accelcore.errors import ParameterError
 from accelcore.result.summary import AxisSummary
 
-__all__ = ["compare", "text"]
+__all__ = ["compare", "nominal_sensitivity", "text"]
 
 
 def compare(
@@ -165,3 +166,27 @@ def _fmt(v: object, digits: int = 4) -> str:
     if not isinstance(v, (int, float)) or math.isnan(v):
         return ""
     return f"{v:.{digits}g}"
+
+
+def nominal_sensitivity(
+    units: str, sensor: str | None, gravity_m_s2: float = STANDARD_GRAVITY
+) -> tuple[float, float, float] | None:
+    """Nominal sensitivity per axis in ``units``/g, or None when unknown.
+
+    ``g`` gives 1, ``mg`` 1000, ``m/s2`` the local gravity ``gravity_m_s2``
+    (default standard gravity, 9.80665); ``V`` and ``LSB`` take the datasheet
+    typical of ``sensor``.
+    """
+    if units in UNITS_PER_G:
+        return (UNITS_PER_G[units],) * 3
+    if units == "m/s2":
+        return (gravity_m_s2,) * 3
+    if sensor:
+        try:
+            sheet = datasheets.load(sensor)
+        except (KeyError, ValueError):
+            return None
+        typ = sheet.typical("sensitivity")
+        if all(t is not None for t in typ):
+            return (float(typ[0]), float(typ[1]), float(typ[2]))  # type: ignore[arg-type]
+    return None
