@@ -138,9 +138,9 @@ def _replay(log: list[tuple[Any, str, tuple[Any, ...], bool]]) -> float:
     t0 = time.perf_counter()
     for eng, axis, keys, coarse in log:
         rows = slice(None, None, eng.coarse_stride if coarse else 1)
-        x = np.column_stack([eng._key_column(k)[rows] for k in keys])
+        x = np.column_stack([eng._window_column(k)[rows] for k in keys])
         reference_heldout.cross_validate(
-            x, eng.y[axis][rows], eng.sample_block[rows], eng.block_fold, eng.w[rows]
+            x, eng._yc[axis][rows], eng.window_block[rows], eng.block_fold, eng.window_weight[rows]
         )
     return time.perf_counter() - t0
 

@@ -29,13 +29,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from accelcore.core import BlockedLeastSquares, FoldedLeastSquares, HeldOutFit
-from accelcore.errors import InsufficientDataError, ParameterError
+from accelcore.errors import InsufficientDataError
 from accelcore.fitting.calibrate import CutFeatures, Stacked, block_weights
 from accelcore.input.records import records
 from accelcore.input.session import Session
@@ -54,7 +54,9 @@ from accelcore.model import (
 from accelcore.result.calibration import Calibration, nominal_sensitivity
 
 from .fits import Fit
+from .folds import choose_folds
 from .observables import leg_labels, rate_c_per_min
+from .windows import choose_windows
 
 __all__ = ["CV", "Engine"]
 
@@ -190,7 +192,16 @@ class Engine:
         self.sample_block = np.repeat(
             np.arange(self.block_start.size), self.block_stop - self.block_start
         )
-        self.scheme, self.fold_names, self.block_fold = self._choose_folds(folds, leg_kinds)
+        self.scheme, self.fold_names, self.block_fold = choose_folds(
+            folds,
+            part_run,
+            part_leg,
+            grav,
+            [rec.label for rec in self.records],
+            leg_kinds,
+            self.block_part,
+            self.elapsed_s[self.block_start],
+        )
         self.n_folds = len(self.fold_names)
         self.sample_fold = self.block_fold[self.sample_block]
         self.fold_rows = [np.flatnonzero(self.sample_fold == k) for k in range(self.n_folds)]
@@ -233,6 +244,31 @@ class Engine:
             ):
                 y -= s0 * self.gravity[:, a_i]
             self.y[a] = y * (1000.0 / self.scale[a])
+        self.windows = choose_windows(
+            self.w,
+            self.block_start,
+            self.block_stop,
+            [self.temperature, self.rate, self.elapsed_s, *self.extras.values()],
+            [self.y[a] for a in AXES],
+        )
+        self.sample_window = self.windows.sample_window
+        self.n_windows = self.windows.n
+        self.window_start = self.windows.start
+        self.window_weight = self.windows.weight
+        self.window_block = self.windows.block
+        self.window_gravity = np.column_stack([self.compress(self.gravity[:, i]) for i in range(3)])
+        self._cbasis_cache: dict[Basis, FloatArray] = {}
+        # Each axis' response as window means, and what the means leave out: the weighted
+        # square of each sample about its window's mean, per block (in every model's SSE).
+        self._yc: dict[str, FloatArray] = {}
+        self._within: dict[str, FloatArray] = {}
+        for a in AXES:
+            yc = self.compress(self.y[a])
+            self._yc[a] = yc
+            dev = self.y[a] - yc[self.sample_window]
+            self._within[a] = np.bincount(
+                self.sample_block, weights=self.w * dev * dev, minlength=self.block_start.size
+            ).astype(np.float64)
         self._memo: dict[tuple[str, tuple[_Key, ...]], HeldOutFit] = {}
         self.max_order = max_order
         #: Extra columns that are finite and vary (candidates of the model space).
@@ -250,61 +286,22 @@ class Engine:
         self._wide: dict[_CatalogueName, tuple[dict[_Key, int], FoldedLeastSquares]] = {}
         self._push_catalogue(None)
 
-    # -------------------------------------------------------------- folds
-    def _choose_folds(
-        self, folds: str, leg_kinds: Mapping[tuple[int, int], str]
-    ) -> tuple[str, list[str], NDArray[np.int64]]:
-        runs = sorted(set(self.part_run))
-        part_run = np.asarray(self.part_run)
-        part_leg = np.asarray(self.part_leg)
-        if folds not in ("auto", "runs", "legs", "blocks"):
-            raise ParameterError(f"folds must be auto, runs, legs or blocks, got {folds!r}")
-
-        def diverse(part_fold: NDArray[np.int64]) -> bool:
-            sample_fold = part_fold[self.sample_part]
-            # Every fold's training data must keep each axis' gravity at two values or more
-            # (offset and sensitivity told apart) wherever the whole session does.
-            for a_i in range(3):
-                need = min(2, self.gravity_values[a_i])
-                for k in np.unique(part_fold):
-                    train = self.gravity[sample_fold != k, a_i]
-                    if train.size == 0 or np.unique(train).size < need:
-                        return False
-            return True
-
-        if folds in ("auto", "runs") and len(runs) >= 3:
-            pf = np.searchsorted(runs, part_run).astype(np.int64)
-            if folds == "runs" or diverse(pf):
-                names = [f"run {self.records[r].label}" for r in runs]
-                return "runs", names, pf[self.block_part]
-        n_legs = int(part_leg.max()) + 1
-        if folds in ("auto", "legs") and n_legs >= 2:
-            names = []
-            for leg in range(n_legs):
-                kinds = sorted({leg_kinds[(r, lg)] for (r, lg) in leg_kinds if lg == leg})
-                names.append(f"leg {leg + 1} ({'/'.join(kinds)})")
-            return "legs", names, part_leg.astype(np.int64)[self.block_part]
-        if folds == "legs" and n_legs < 2:
-            raise ParameterError("folds='legs' needs runs with at least two legs")
-        # Thirds of every run in time: parts are split further by third.
-        return "blocks", ["first third", "middle third", "last third"], self._split_thirds()
-
-    def _split_thirds(self) -> NDArray[np.int64]:
-        # Blocks of each run assigned to thirds of its duration.
-        block_fold = np.zeros(self.block_start.size, dtype=np.int64)
-        for r in set(self.part_run):
-            sel = np.flatnonzero(np.asarray(self.part_run)[self.block_part] == r)
-            t = self.elapsed_s[self.block_start[sel]]
-            span = max(float(t.max() - t.min()), 1e-9)
-            block_fold[sel] = np.minimum(2, np.floor(3 * (t - t.min()) / span * 0.9999)).astype(
-                np.int64
-            )
-        return block_fold
+    def compress(self, values: FloatArray) -> FloatArray:
+        """Return the weighted mean of ``values`` (one per sample) in every window."""
+        return self.windows.compress(values)
 
     # -------------------------------------------------------------- columns
     def basis(self, basis: Basis | str) -> FloatArray:
         """Return the column of a basis (e.g. ``dT^2``, ``lag(60):dT^1``) over every sample."""
         key = Basis.parse(basis)
+        if key not in self._basis_cache and isinstance(
+            key, (TemperaturePower, LaggedTemperaturePower)
+        ):
+            if key.order > 1:
+                # dT^k = dT^(k-1) * dT: one filter pass per lag, one product per order.
+                lower = replace(key, order=key.order - 1)
+                first = replace(key, order=1)
+                self._basis_cache[key] = self.basis(lower) * self.basis(first)
         if key not in self._basis_cache:
             one = Term("offset", key)
             self._basis_cache[key] = np.concatenate(
@@ -372,13 +369,18 @@ class Engine:
         keys: list[_Key] = [(b, None) for b in offsets] + [(b, a) for a in AXES for b in gains]
         keys = list(extra_keys) if only else keys + [k for k in extra_keys if k not in keys]
         keys = keys[:_MAX_COLUMNS]
-        design = np.empty((self.n, len(keys)))
+        design = np.empty((self.n_windows, len(keys)))
         for i, key in enumerate(keys):
-            design[:, i] = self._key_column(key)
+            design[:, i] = self._window_column(key)
         if not np.all(np.isfinite(design)):
             return
         wide = BlockedLeastSquares(len(keys), int(self.block_start.size), n_responses=len(AXES))
-        wide.push(design, np.column_stack([self.y[a] for a in AXES]), self.sample_block, self.w)
+        wide.push(
+            design,
+            np.column_stack([self._yc[a] for a in AXES]),
+            self.window_block,
+            self.window_weight,
+        )
         self._wide[lag if name is None else name] = (
             {k: i for i, k in enumerate(keys)},
             wide.folds(self.block_fold),
@@ -415,19 +417,19 @@ class Engine:
         """
         keys = self._keys(axis, terms)
         rows = slice(None, None, self.coarse_stride)
-        y, w = self.y[axis][rows], self.w[rows]
+        y, w = self._yc[axis][rows], self.window_weight[rows]
         if not keys:
             return float((w * y * y).sum())
-        x = np.column_stack([self._key_column(k, rows) for k in keys])
+        x = np.column_stack([self._window_column(k)[rows] for k in keys])
         own = BlockedLeastSquares(x.shape[1], int(self.block_start.size))
-        own.push(x, y, self.sample_block[rows], w)
+        own.push(x, y, self.window_block[rows], w)
         fit = own.cross_validate(self.block_fold)
         return float(np.sum(fit.heldout_rss_per_block))
 
     @property
     def coarse_stride(self) -> int:
-        """Row stride of :meth:`cv_coarse`: about :data:`COARSE_ROWS` rows, at least all."""
-        return max(1, self.n // COARSE_ROWS)
+        """Window stride of :meth:`cv_coarse`: about :data:`COARSE_ROWS` windows, at least all."""
+        return max(1, self.n_windows // COARSE_ROWS)
 
     def keep_lags(self, die: Sequence[float], rate: Sequence[float]) -> None:
         """Keep a catalogue (rows pushed once) for each lag the models now hold; drop the rest.
@@ -444,6 +446,19 @@ class Engine:
         for lag in wanted:
             if lag not in self._wide:
                 self._push_catalogue(lag)
+
+    def _window_column(self, key: _Key) -> FloatArray:
+        """Return the column of a key as window means (a gain's gravity is constant in one)."""
+        basis, source = key
+        col = self._cbasis_cache.get(basis)
+        if col is None:
+            col = self.compress(self.basis(basis))
+            if len(self._cbasis_cache) > 4 * _MAX_COLUMNS:
+                self._cbasis_cache.clear()
+            self._cbasis_cache[basis] = col
+        if source is None:
+            return col
+        return col * self.window_gravity[:, AXES.index(source)]
 
     def _key_column(self, key: _Key, rows: slice | None = None) -> FloatArray:
         basis, source = key
@@ -472,9 +487,9 @@ class Engine:
             columns = [wide[0][k] for k in keys]
             fit = wide[1].cross_validate(columns, response=AXES.index(axis))
         else:
-            x = np.column_stack([self._key_column(k) for k in keys])
+            x = np.column_stack([self._window_column(k) for k in keys])
             own = BlockedLeastSquares(x.shape[1], int(self.block_start.size))
-            own.push(x, self.y[axis], self.sample_block, self.w)
+            own.push(x, self._yc[axis], self.window_block, self.window_weight)
             fit = own.cross_validate(self.block_fold)
         if len(self._memo) >= self.memo_size:
             self._memo.clear()
@@ -497,7 +512,8 @@ class Engine:
         beta_fold[: held.fold_coefficients.shape[0]] = held.fold_coefficients
         # A fold without a weighted row leaves every row for training: the fit on all data.
         beta_fold[np.isnan(beta_fold).any(axis=1)] = beta_in
-        return Fit(x, beta_in, beta_fold, float(held.in_sample_rss))
+        within = float(self._within[axis].sum())
+        return Fit(x, beta_in, beta_fold, float(held.in_sample_rss) + within)
 
     def heldout_residuals(self, y: FloatArray, fit: Fit) -> FloatArray:
         """Residual of every sample under the fit that held its fold out, mg."""
@@ -512,11 +528,14 @@ class Engine:
         held = self._heldout(axis, self._keys(axis, terms))
         if held is None:
             y2 = self.w * self.y[axis] ** 2
-            sse_blocks = np.bincount(self.sample_block, weights=y2, minlength=self.block_start.size)
+            sse_blocks = np.bincount(
+                self.sample_block, weights=y2, minlength=self.block_start.size
+            ).astype(np.float64)
             sse_in = float(y2.sum())
         else:
-            sse_blocks = np.array(held.heldout_rss_per_block, dtype=np.float64)
-            sse_in = max(float(held.in_sample_rss), 0.0)
+            within = self._within[axis]
+            sse_blocks = np.array(held.heldout_rss_per_block, dtype=np.float64) + within
+            sse_in = max(float(held.in_sample_rss), 0.0) + float(within.sum())
         wsum = float(self.w.sum())
         return CV(
             tuple(terms),

@@ -61,6 +61,17 @@ def structures(
             obs[name] = (values, False)
     out: list[Structure] = []
     part = eng.sample_part
+    # Samples are binned by the engine's windows (consecutive samples of one block):
+    # a bin's mean is then the count-weighted mean of its windows' means, and each
+    # observable is sorted once per window, not once per sample.
+    first = eng.window_start
+    count = np.diff(np.append(first, eng.n)).astype(np.float64)
+
+    def means(values: FloatArray) -> FloatArray:
+        return np.asarray(np.add.reduceat(values, first) / count, dtype=np.float64)
+
+    obs_w = {name: (means(x), per_run) for name, (x, per_run) in obs.items()}
+    run_w = eng.sample_run[first]
     for a in AXES:
         r = resid[a]
         same = part[1:] == part[:-1]
@@ -68,13 +79,14 @@ def structures(
         sigma = math.sqrt(float(np.mean(d * d)) / 2.0) if d.size else math.nan
         if not sigma > 0:
             continue
+        r_w = means(r)
         # Pooled observables are binned within each gravity value of the axis, so that
         # structure proportional to gravity (opposite in opposite orientations) shows.
-        grav_group = np.unique(eng.gravity[:, AXES.index(a)], return_inverse=True)[1]
-        for name, (x, per_run) in obs.items():
-            groups = eng.sample_run if per_run else grav_group.astype(np.int64)
+        grav_group = np.unique(eng.gravity[first, AXES.index(a)], return_inverse=True)[1]
+        for name, (x, per_run) in obs_w.items():
+            groups = run_w if per_run else grav_group.astype(np.int64)
             bins = _bin_ids(x, groups, n_bins, per_run)
-            chi2, dof, n_used = _binned_chi2(r, bins, sigma)
+            chi2, dof, n_used = _binned_chi2(r_w, count, bins, sigma)
             if dof < 1:
                 continue
             p = chi2_sf(chi2, dof)
@@ -107,9 +119,12 @@ def _bin_ids(
     return ids
 
 
-def _binned_chi2(r: FloatArray, bins: NDArray[np.int64], sigma: float) -> tuple[float, int, int]:
-    counts = np.bincount(bins)
-    sums = np.bincount(bins, weights=r)
+def _binned_chi2(
+    r: FloatArray, count: FloatArray, bins: NDArray[np.int64], sigma: float
+) -> tuple[float, int, int]:
+    """Chi-square of the bins' means of ``r`` (each value the mean of ``count`` samples)."""
+    counts = np.bincount(bins, weights=count)
+    sums = np.bincount(bins, weights=count * r)
     ok = counts >= 10
     if ok.sum() < 2:
         return 0.0, 0, 0

@@ -35,6 +35,10 @@ pub fn first_order_lag(
     };
     let mut y = initial.unwrap_or(first);
     let mut previous_t = time_s[0];
+    // Logs are sampled on a regular grid: the step's factor is computed again only
+    // when the interval changes (the same value as computing it every time).
+    let mut last_dt = f64::NAN;
+    let mut alpha = 0.0;
     for (i, (&t, &x)) in time_s.iter().zip(temperature_c).enumerate() {
         if !(t.is_finite() && x.is_finite()) {
             return Err(Error::NonFinite {
@@ -54,7 +58,10 @@ pub fn first_order_lag(
                     time_s: t,
                 });
             }
-            let alpha = -(-dt / tau_s).exp_m1();
+            if dt.to_bits() != last_dt.to_bits() {
+                last_dt = dt;
+                alpha = -(-dt / tau_s).exp_m1();
+            }
             y += alpha * (x - y);
         }
         previous_t = t;

@@ -1,0 +1,99 @@
+"""Held-out folds of the diagnosis: whole runs, legs of the temperature cycle, or thirds.
+
+A fold is a set of blocks held out together. :func:`choose_folds` picks whole
+records (three or more, each fold's training data keeping every axis' gravity at
+two values wherever the session has them), else legs, else thirds of each record in
+time. Records, not files: the same samples cut into files differently get the same
+folds.
+
+Imports: NumPy and the error types only.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from accelcore.errors import ParameterError
+
+__all__ = ["SCHEMES", "choose_folds"]
+
+IntArray = NDArray[np.int64]
+
+#: The fold schemes ``folds=`` may name.
+SCHEMES = ("auto", "runs", "legs", "blocks")
+
+
+def choose_folds(
+    folds: str,
+    part_run: Sequence[int],
+    part_leg: Sequence[int],
+    part_gravity: Sequence[NDArray[np.float64]],
+    run_labels: Sequence[str],
+    leg_kinds: Mapping[tuple[int, int], str],
+    block_part: IntArray,
+    block_elapsed_s: NDArray[np.float64],
+) -> tuple[str, list[str], IntArray]:
+    """Return the scheme, the fold names and the fold of every block.
+
+    Parameters
+    ----------
+    folds : {"auto", "runs", "legs", "blocks"}
+    part_run, part_leg : sequence of int
+        Record and leg of each part.
+    part_gravity : sequence of ndarray, shape (3,)
+        Gravity (g) of each part.
+    run_labels : sequence of str
+        Label of each record.
+    leg_kinds : mapping
+        ``(record, leg)`` -> ``"heating"``, ``"cooling"`` or ``"steady"``.
+    block_part : ndarray of int64
+        Part of each block.
+    block_elapsed_s : ndarray
+        Time of each block's first sample since its record's start, s.
+    """
+    if folds not in SCHEMES:
+        raise ParameterError(f"folds must be auto, runs, legs or blocks, got {folds!r}")
+    runs = sorted(set(part_run))
+    p_run = np.asarray(part_run, dtype=np.int64)
+    p_leg = np.asarray(part_leg, dtype=np.int64)
+    grav = np.asarray(part_gravity, dtype=np.float64).reshape(-1, 3)
+    values = [np.unique(grav[:, i]).size for i in range(3)]
+
+    def diverse(part_fold: IntArray) -> bool:
+        # Every fold's training data must keep each axis' gravity at two values or more
+        # (offset and sensitivity told apart) wherever the whole session does.
+        for a_i in range(3):
+            need = min(2, values[a_i])
+            for k in np.unique(part_fold):
+                train = grav[part_fold != k, a_i]
+                if train.size == 0 or np.unique(train).size < need:
+                    return False
+        return True
+
+    if folds in ("auto", "runs") and len(runs) >= 3:
+        pf = np.searchsorted(runs, p_run).astype(np.int64)
+        if folds == "runs" or diverse(pf):
+            return "runs", [f"run {run_labels[r]}" for r in runs], pf[block_part]
+    n_legs = int(p_leg.max()) + 1
+    if folds in ("auto", "legs") and n_legs >= 2:
+        names = []
+        for leg in range(n_legs):
+            kinds = sorted({leg_kinds[(r, lg)] for (r, lg) in leg_kinds if lg == leg})
+            names.append(f"leg {leg + 1} ({'/'.join(kinds)})")
+        return "legs", names, p_leg[block_part]
+    if folds == "legs" and n_legs < 2:
+        raise ParameterError("folds='legs' needs runs with at least two legs")
+    # Thirds of every record in time: parts are split further by third.
+    block_fold = np.zeros(block_part.size, dtype=np.int64)
+    block_run = p_run[block_part]
+    for r in runs:
+        sel = np.flatnonzero(block_run == r)
+        t = block_elapsed_s[sel]
+        span = max(float(t.max() - t.min()), 1e-9)
+        block_fold[sel] = np.minimum(2, np.floor(3 * (t - t.min()) / span * 0.9999)).astype(
+            np.int64
+        )
+    return "blocks", ["first third", "middle third", "last third"], block_fold
