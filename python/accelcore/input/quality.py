@@ -39,6 +39,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
 from accelcore._accelcore import running_median
@@ -53,6 +54,8 @@ __all__ = ["QualityIssue", "check_session", "excluded_blocks"]
 MAD_TO_SIGMA = 1.4826
 #: Temperature span, °C, the other runs must have for a run to be called short.
 SHORT_MIN_SPAN_C = 2.0
+#: Blocks processed at a time by the sliding-window statistics (bounded memory).
+_CHUNK = 1 << 16
 
 
 @dataclass(frozen=True)
@@ -94,7 +97,7 @@ def check_session(
     outlier_z: float = 8.0,
     outlier_window: int = 9,
     step_z: float = 12.0,
-    step_window: int = 21,
+    step_window: int = 20,
     window_c: tuple[float, float] | Literal["logged"] | None = "logged",
     bin_width_c: float = 0.5,
     min_bins: int = 3,
@@ -119,8 +122,7 @@ def check_session(
     step_z, step_window : float, int
         A step is a jump between the medians of the ``step_window`` blocks
         after and before a point, less the local drift (from the neighbouring
-        windows), whose robust z-score exceeds ``step_z``. An even window is
-        rounded up to the next odd one (each median is then one of the blocks).
+        windows), whose robust z-score exceeds ``step_z``.
     window_c : (float, float), "logged" or None, default "logged"
         Analysis window (as in :func:`accelcore.calibrate`); ``"logged"`` (the
         default of :func:`accelcore.calibrate`): the logged range, so only the
@@ -379,13 +381,12 @@ def _check_steps(
         sigma = max(sigma, float(nonzero.min()))
     if sigma == 0.0:
         return []
-    # An odd window (an even one rounded up): its median is one of the samples, and the
-    # core's running median gives every window's in one pass.
-    w = 2 * (window // 2) + 1
-    if n < 5 * w:
-        return []
-    half = w // 2
-    medians = _running_median(y, w)[half : n - half]  # medians[j] = median(y[j : j + w])
+    w = window
+    medians = np.empty(n - w + 1)  # medians[j] = median(y[j : j + w])
+    for start in range(0, medians.shape[0], _CHUNK):
+        stop = min(start + _CHUNK, medians.shape[0])
+        view = sliding_window_view(y[start : stop + w - 1], w)
+        medians[start:stop] = np.median(view, axis=1)
     # For a boundary i (first block after a possible step), with the window medians
     # M-2, M-1 before and M0, M1 after it: D = (M0 - M-1) - ((M1 - M0) + (M-1 - M-2)) / 2,
     # the jump minus the local drift. D = h for a step h and 0 for a linear drift
