@@ -34,6 +34,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from accelcore._accelcore import first_order_lag
 from accelcore.core import BlockedLeastSquares, FoldedLeastSquares, HeldOutFit
 from accelcore.errors import InsufficientDataError
 from accelcore.fitting.calibrate import CutFeatures, Stacked, block_weights
@@ -51,7 +52,7 @@ from accelcore.model import (
     Term,
     design_columns,
 )
-from accelcore.result.calibration import Calibration, nominal_sensitivity
+from accelcore.result.calibration import AxisModel, Calibration, nominal_sensitivity
 
 from .fits import Fit
 from .folds import choose_folds
@@ -111,6 +112,11 @@ class Engine:
         part_leg: list[int] = []
         leg_kinds: dict[tuple[int, int], str] = {}
         rates: list[FloatArray] = []
+        # Each record's features whole (a lag runs over the record unbroken) and where
+        # every sample of the parts sits in them, end to end.
+        self._wholes: list[tuple[FloatArray, FloatArray]] = []
+        gather: list[NDArray[np.int64]] = []
+        offset = 0
         for i, run in enumerate(self.records):
             if len(run) == 0:
                 continue
@@ -133,6 +139,7 @@ class Engine:
                 if np.count_nonzero(keep) < 2:
                     continue
                 feats.append(CutFeatures.cut(whole, keep))
+                gather.append(offset + np.flatnonzero(keep))
                 grav.append(run.gravity_g)
                 out.append(run.output[keep])
                 wts.append(weight[keep])
@@ -141,9 +148,12 @@ class Engine:
                 part_leg.append(leg)
                 leg_kinds[(i, leg)] = kinds[leg]
                 rates.append(rate[keep])
+            self._wholes.append((time_s, np.asarray(run.temperature_c, dtype=np.float64)))
+            offset += len(run)
         if not feats:
             raise InsufficientDataError("no decimated sample lies in the calibration's window")
         self.data = Stacked(feats, grav, out, wts, run_idx)
+        self._gather = np.concatenate(gather)
         self.part_run = part_run
         self.part_leg = part_leg
         sizes = [len(f) for f in feats]
@@ -270,6 +280,8 @@ class Engine:
                 self.sample_block, weights=self.w * dev * dev, minlength=self.block_start.size
             ).astype(np.float64)
         self._memo: dict[tuple[str, tuple[_Key, ...]], HeldOutFit] = {}
+        #: Full fits of axis models on every sample (:func:`.parameters.fit_models`).
+        self.fitted: dict[tuple[str, tuple[Term, ...]], tuple[AxisModel, list[str], list[str]]] = {}
         self.max_order = max_order
         #: Extra columns that are finite and vary (candidates of the model space).
         self.varying_extras = [
@@ -297,7 +309,13 @@ class Engine:
         if key not in self._basis_cache and isinstance(
             key, (TemperaturePower, LaggedTemperaturePower)
         ):
-            if key.order > 1:
+            if isinstance(key, LaggedTemperaturePower) and key.order == 1:
+                # One filter pass per record, as a part's features would run it.
+                lagged = np.concatenate(
+                    [first_order_lag(t, temp, key.tau_s) for t, temp in self._wholes]
+                )
+                self._basis_cache[key] = lagged[self._gather] - self.t_ref_c
+            elif key.order > 1:
                 # dT^k = dT^(k-1) * dT: one filter pass per lag, one product per order.
                 lower = replace(key, order=key.order - 1)
                 first = replace(key, order=1)

@@ -130,9 +130,16 @@ def fit_models(
     notes: list[str] = []
     for a in axes:
         i = AXES.index(a)
-        model, fixed, axis_notes = fit_axis(
-            a, specs[a].terms(a), eng.data, None if nominal is None else nominal[i], eng.references
-        )
+        terms = tuple(specs[a].terms(a))
+        # The selection asks again for models it has fitted (a step's figures, then the
+        # final calibration): each is fitted once.
+        done = eng.fitted.get((a, terms))
+        if done is None:
+            done = fit_axis(
+                a, terms, eng.data, None if nominal is None else nominal[i], eng.references
+            )
+            eng.fitted[(a, terms)] = done
+        model, fixed, axis_notes = done
         models[a] = model
         fixed_all += fixed
         notes += axis_notes

@@ -41,10 +41,12 @@ __all__ = [
     "with_warm_up",
 ]
 
-#: Points of the log grid of a time-constant search, then golden-section steps
-#: around the best (the bracket shrinks to 0.618^8 = 2 % of two grid steps).
+#: Points of the log grid of a time-constant search, then at most SEARCH_STEPS steps
+#: of parabolic interpolation around the best, until one moves less than TAU_TOL in
+#: log tau (0.5 %, finer than a time constant's standard error).
 GRID_POINTS = 10
-GOLDEN_STEPS = 8
+SEARCH_STEPS = 8
+TAU_TOL = 5e-3
 
 #: Family name of the warm-up (a session event).
 WARM_UP = "event: warm-up"
@@ -128,10 +130,11 @@ def search_1d(
 ) -> tuple[float, CV]:
     """Search a positive time constant of a model (``make(tau)``) on held-out SSE.
 
-    A log grid of :data:`GRID_POINTS` over ``range_s``, then :data:`GOLDEN_STEPS` of golden
-    section around the best; the
-    trials are scored on a stride of the rows (:meth:`Engine.cv_coarse`) and the
-    value found is cross-validated on every row.
+    A log grid of :data:`GRID_POINTS` over ``range_s``, then at most
+    :data:`SEARCH_STEPS` of parabolic interpolation (golden section where a parabola
+    leaves the bracket) around the best; the trials are scored on a stride of the
+    engine's rows (:meth:`Engine.cv_coarse`) and the value found is cross-validated
+    on every row.
     """
     cache: dict[float, float] = {}
     tau_range_s = range_s
@@ -146,19 +149,34 @@ def search_1d(
     grid = np.linspace(lo, hi, GRID_POINTS)
     vals = [score(math.exp(g)) for g in grid]
     i = int(np.argmin(vals))
-    a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    golden = (math.sqrt(5) - 1) / 2
-    c, d = b - golden * (b - a), a + golden * (b - a)
-    fc, fd = score(math.exp(c)), score(math.exp(d))
-    for _ in range(GOLDEN_STEPS):
-        if fc < fd:
-            b, d, fd = d, c, fc
-            c = b - golden * (b - a)
-            fc = score(math.exp(c))
+    # Bracket (a, x, b) around the grid's best, then parabolas through the three in
+    # log tau (a golden-section step where a parabola leaves the bracket), until a
+    # step moves less than TAU_TOL (log) or SEARCH_STEPS are spent.
+    a, fa = grid[max(i - 1, 0)], vals[max(i - 1, 0)]
+    b, fb = grid[min(i + 1, grid.size - 1)], vals[min(i + 1, grid.size - 1)]
+    x, fx = grid[i], vals[i]
+    golden = (3 - math.sqrt(5)) / 2
+    for _ in range(SEARCH_STEPS):
+        num = (x - a) ** 2 * (fx - fb) - (x - b) ** 2 * (fx - fa)
+        den = (x - a) * (fx - fb) - (x - b) * (fx - fa)
+        u = x - 0.5 * num / den if den != 0 else math.nan
+        if not (a < u < b) or abs(u - x) < 0.5 * TAU_TOL:
+            # Golden section of the larger side.
+            u = x + golden * (b - x) if (b - x) > (x - a) else x - golden * (x - a)
+        fu = score(math.exp(u))
+        moved = abs(u - x)
+        if fu < fx:
+            if u < x:
+                b, fb = x, fx
+            else:
+                a, fa = x, fx
+            x, fx = u, fu
+        elif u < x:
+            a, fa = u, fu
         else:
-            a, c, fc = c, d, fd
-            d = a + golden * (b - a)
-            fd = score(math.exp(d))
+            b, fb = u, fu
+        if moved < TAU_TOL or b - a < 2 * TAU_TOL:
+            break
     best = min(cache, key=lambda t: cache[t])
     return best, eng.cv(axis, make(best).terms(axis))
 
