@@ -82,9 +82,10 @@ def test_z_beats_the_fixed_cubic_on_every_held_out_leg(diagnosis: Diagnosis) -> 
         assert final[fold]["z"] < cubic[(fold, "z")], fold
     last = diagnosis.folds[-1]
     assert final[last]["z"] <= 0.5 * cubic[(last, "z")]
-    # x is better than the cubic on every leg too (y: see docs/diagnosis.md).
+    # x and y are better than the cubic on every leg too.
     for fold in diagnosis.folds:
         assert final[fold]["x"] < cubic[(fold, "x")], fold
+        assert final[fold]["y"] < cubic[(fold, "y")], fold
     # The hysteresis between heating and cooling is found (lag / rate dependence).
     assert "thermal_lag" in diagnosis.effects
     print("\n" + realdata_table(diagnosis).round(2).to_string())

@@ -23,6 +23,7 @@ from dataclasses import replace
 from typing import Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from accelcore.model import (
     AXES,
@@ -107,14 +108,14 @@ def knots(
     """Knots of an observable at ``fractions`` of its 5–95 % span; distinct, none near an end."""
     key = (inner, tuple(fractions))
     if key not in eng.knot_cache:
-        eng.knot_cache[key] = _knots(eng, inner, fractions)
+        # Every set of knots of an observable reads its values sorted once.
+        if inner not in eng.sorted_cache:
+            eng.sorted_cache[inner] = np.sort(eng.basis(inner)[eng.w > 0])
+        eng.knot_cache[key] = _knots(eng.sorted_cache[inner], fractions)
     return eng.knot_cache[key]
 
 
-def _knots(eng: Engine, inner: Basis, fractions: Sequence[float]) -> tuple[float, ...]:
-    values = eng.basis(inner)
-    used = eng.w > 0
-    v = np.sort(values[used])
+def _knots(v: NDArray[np.float64], fractions: Sequence[float]) -> tuple[float, ...]:
     if v.size < 8 or not np.all(np.isfinite(v)) or v[-1] <= v[0]:
         return ()
     lo, hi = (float(x) for x in np.quantile(v, list(_RANGE)))
