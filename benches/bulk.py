@@ -1,6 +1,7 @@
-"""Case (e): bulk calibration + diagnosis of 50 small simulated sessions, 1 vs 2 jobs.
+"""Case (e): bulk calibration + diagnosis of simulated sessions, 1 vs 2 jobs.
 
-The archive (ADXL335, six 0.1 h runs each, heat and cool back, a thermal lag) is
+The archive (ADXL335, 12 sessions of six 1 h runs each at 20 Hz, heat and cool back,
+a thermal lag; 3 sessions with ``--quick``) is
 written once and reused; every repetition runs with ``force=True`` and without
 the run cache (``cache=False``) so both job counts do all the work. Repetitions
 alternate 1 and 2 jobs, so both see the same machine load. CPU time counts this
@@ -22,6 +23,8 @@ from accelcore.apps.bulk import bulk
 from accelcore.simulate import effects as se
 
 SPEEDUP_TARGET = 1.8
+#: Sessions per minute (wall) the issue asks of two cores, calibration and diagnosis.
+RATE_TARGET = 600.0
 
 
 def make_archive(root: Path, n: int, hours: float) -> Path:
@@ -52,9 +55,9 @@ def _load1() -> float:
 
 
 def run(ctx: Context) -> list[Table]:
-    n_sessions = 6 if ctx.quick else 50
-    hours = 0.1
-    repeat = 1 if ctx.quick else 5
+    n_sessions = 3 if ctx.quick else 12
+    hours = 1.0
+    repeat = 1 if ctx.quick else 3
     archive = make_archive(ctx.workdir / f"archive-{n_sessions}x{hours:g}h", n_sessions, hours)
     mb = sum(f.stat().st_size for f in archive.rglob("*.csv")) / 1e6
     walls: dict[int, list[float]] = {1: [], 2: []}
@@ -98,8 +101,9 @@ def run(ctx: Context) -> list[Table]:
         table.rows.append(rows[jobs])
     two = rows[2]
     two.baseline, two.ratio = rows[1].name, rows[1].wall_s / two.wall_s
-    two.target = f">={SPEEDUP_TARGET:g}x"
-    two.met = "yes" if two.ratio >= SPEEDUP_TARGET else "no"
+    rate = 60.0 * n_sessions / two.wall_s
+    two.target = f">={SPEEDUP_TARGET:g}x and >={RATE_TARGET:g}/min"
+    two.met = "yes" if two.ratio >= SPEEDUP_TARGET and rate >= RATE_TARGET else "no"
     # What two idle cores would give if the work splits evenly: jobs=1 CPU over half
     # the jobs=2 CPU (which includes the pool's start-up and the workers' imports).
     ideal = rows[1].cpu_s / (two.cpu_s / 2.0)
