@@ -227,15 +227,17 @@ class Diagnosis:
         observable), then the warnings.
         """
         rep = self.report()
+        # The effect column as wide as its longest name (generic names are long).
+        wide = max([22, *(len(str(e)) + 2 for e in rep["effect"])])
         lines = [
             f"Diagnosis: {len(self.steps) - 1} effect(s) added; held-out folds: "
             f"{self.scheme} ({', '.join(self.folds)})",
-            f"{'step':>4}  {'effect':<22}{'axes':<7}{'RMS in':>9}{'RMS out':>9}"
+            f"{'step':>4}  {'effect':<{wide}}{'axes':<7}{'RMS in':>9}{'RMS out':>9}"
             f"{'max out':>9}{'cut':>7}   (mg, all axes; before → after)",
         ]
         for r in rep.to_dict(orient="records"):
             lines.append(
-                f"{r['step']:>4}  {r['effect']:<22}{r['axes']:<7}{r['rms_in_after_mg']:>9.3f}"
+                f"{r['step']:>4}  {r['effect']:<{wide}}{r['axes']:<7}{r['rms_in_after_mg']:>9.3f}"
                 f"{r['rms_out_after_mg']:>9.3f}{r['max_out_after_mg']:>9.2f}{r['cut_pct']:>6.1f}%"
             )
         lines += ["", *effects_lines(self.effects_table())]
