@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import time
 from collections.abc import Sequence
 
 import numpy as np
@@ -237,11 +236,11 @@ def test_report_text_json_and_plot() -> None:
     plt.close(fig)
 
 
-def test_diagnose_is_fast_on_a_two_hour_six_run_session() -> None:
+def test_diagnose_finds_the_lag_on_a_two_hour_six_run_session() -> None:
+    # Its speed is measured in benches/closed_loop.py, as a ratio; here, what it finds.
     session = make_session((se.ThermalLag(60.0),), 10, duration_h=2.0)
-    t0 = time.perf_counter()
-    diagnose(session)
-    assert time.perf_counter() - t0 < 10.0
+    d = diagnose(session)
+    assert d.effects == ("thermal_lag",)
 
 
 def test_diagnose_starting_from_a_paper_calibration() -> None:

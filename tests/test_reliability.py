@@ -10,7 +10,6 @@ import shutil
 import subprocess
 import sys
 import textwrap
-import time
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -346,7 +345,6 @@ def test_a_long_log_streams_with_flat_memory(tmp_path: Path) -> None:
     fifo = tmp_path / "log.fifo"
     os.mkfifo(fifo)
     n_rows = 6_000_000  # ~33 bytes a row: ~200 MB
-    start = time.monotonic()
     out = subprocess.run(
         [sys.executable, "-c", _STREAM_SCRIPT, str(fifo), str(n_rows)],
         capture_output=True,
@@ -354,7 +352,6 @@ def test_a_long_log_streams_with_flat_memory(tmp_path: Path) -> None:
         timeout=120,
         check=False,
     )
-    elapsed = time.monotonic() - start
     assert out.returncode == 0, out.stderr
     result = json.loads(out.stdout)
     assert result["n_rows"] == n_rows
@@ -362,4 +359,3 @@ def test_a_long_log_streams_with_flat_memory(tmp_path: Path) -> None:
     growth = result["peak_mb"] - result["base_mb"]
     assert growth < 24.0, result
     assert result["peak_mb"] < 150.0, result
-    assert elapsed < 60.0, f"{elapsed:.1f} s"
