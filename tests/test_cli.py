@@ -461,7 +461,9 @@ class _FakeDiagnosis:
 
 
 def _fake_diagnosis_module(calls: list[object]) -> types.ModuleType:
-    def diagnose(session: accelcore.Session, calibration: object = None) -> _FakeDiagnosis:
+    def diagnose(
+        session: accelcore.Session, calibration: object = None, quality: object = None
+    ) -> _FakeDiagnosis:
         calls.append(calibration)
         return _FakeDiagnosis(session, calibration)
 

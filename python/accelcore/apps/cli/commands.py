@@ -139,9 +139,10 @@ def cmd_diagnose(args: argparse.Namespace, out: TextIO) -> int:
         bar.step("reading")
         session = open_session(args.session, cache=not args.no_cache, instance=args.instance)
         bar.step("checking the data")
-        quality = _check_quality(session)
+        issues = check_session(session, window_c="logged")
+        quality = [dataclasses.asdict(issue) for issue in issues]
         bar.step("diagnosing")
-        result = diagnosis.diagnose(session)
+        result = diagnosis.diagnose(session, quality=issues)  # the checks run once
     if args.save:
         result.calibration.save(args.save)
     if args.json:
