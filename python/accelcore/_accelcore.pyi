@@ -685,6 +685,34 @@ def running_median(y: ArrayLike, /, *, window: int) -> NDArray[np.float64]:
         ``y`` is not 1-D.
     """
 
+def sliding_median(y: ArrayLike, /, *, window: int) -> NDArray[np.float64]:
+    """Median of every window ``y[j : j + window]``, ``j = 0, ..., len(y) - window``.
+
+    Equals ``np.median(sliding_window_view(y, window), axis=1)`` bit for bit (and
+    ``accelcore.reference.sliding_median``): an odd window gives its middle value, an
+    even one the mean of its two middle values ``a <= b`` as NumPy computes it,
+    ``(0.0 + a + b) / 2`` (a zero median is ``+0.0``).
+
+    Parameters
+    ----------
+    y : array_like, shape (n,)
+        The series (converted to float64).
+    window : int
+        Window length, ``1 <= window <= n``.
+
+    Returns
+    -------
+    ndarray of float64, shape (n - window + 1,)
+        The window medians; NaN where the window holds a NaN.
+
+    Raises
+    ------
+    ParameterError
+        ``window < 1`` or ``window > len(y)``.
+    ShapeError
+        ``y`` is not 1-D.
+    """
+
 def plan_split(
     path: str,
     pieces: int,

@@ -11,7 +11,8 @@ result of one pass over ``a``'s input followed by ``b``'s.
 - :class:`BlockedLeastSquares`: one such factor per block of samples; the held-out
   error of any fold assignment by merging factors (the diagnosis' engine);
   :class:`FoldedLeastSquares`, its folds fixed, cross-validates any subset of columns.
-- :func:`running_median`: a centred running median (the data-quality checks' smoother).
+- :func:`running_median`: a centred running median (the data-quality checks' smoother);
+  :func:`sliding_median`, the median of every window (the step check's).
 
 All computation runs in Rust with the GIL released. ``accelcore.reference``
 holds an independent NumPy implementation of the same specification.
@@ -30,6 +31,7 @@ from accelcore._accelcore import (
     LstsqSolution,
     TemperatureBinner,
     running_median,
+    sliding_median,
 )
 
 __all__ = [
@@ -43,4 +45,5 @@ __all__ = [
     "LstsqSolution",
     "TemperatureBinner",
     "running_median",
+    "sliding_median",
 ]

@@ -39,10 +39,9 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
-from accelcore._accelcore import running_median
+from accelcore._accelcore import running_median, sliding_median
 from accelcore.constants import AXES
 from accelcore.errors import DataQualityWarning
 from accelcore.input.records import records
@@ -54,8 +53,6 @@ __all__ = ["QualityIssue", "check_session", "excluded_blocks"]
 MAD_TO_SIGMA = 1.4826
 #: Temperature span, °C, the other runs must have for a run to be called short.
 SHORT_MIN_SPAN_C = 2.0
-#: Blocks processed at a time by the sliding-window statistics (bounded memory).
-_CHUNK = 1 << 16
 
 
 @dataclass(frozen=True)
@@ -382,11 +379,7 @@ def _check_steps(
     if sigma == 0.0:
         return []
     w = window
-    medians = np.empty(n - w + 1)  # medians[j] = median(y[j : j + w])
-    for start in range(0, medians.shape[0], _CHUNK):
-        stop = min(start + _CHUNK, medians.shape[0])
-        view = sliding_window_view(y[start : stop + w - 1], w)
-        medians[start:stop] = np.median(view, axis=1)
+    medians = sliding_median(y, window=w)  # medians[j] = np.median(y[j : j + w])
     # For a boundary i (first block after a possible step), with the window medians
     # M-2, M-1 before and M0, M1 after it: D = (M0 - M-1) - ((M1 - M0) + (M-1 - M-2)) / 2,
     # the jump minus the local drift. D = h for a step h and 0 for a linear drift

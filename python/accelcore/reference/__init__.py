@@ -20,7 +20,7 @@ One module per kernel, named as its Rust twin in ``rust/accelcore-core/src``:
 - :mod:`~accelcore.reference.decimate`: :class:`Decimator`, :class:`DecimatedBlocks`;
 - :mod:`~accelcore.reference.binning`: :class:`TemperatureBinner`, :class:`BinnedStats`;
 - :mod:`~accelcore.reference.regression`: :class:`LeastSquares`, :class:`LstsqSolution`;
-- :mod:`~accelcore.reference.robust`: :func:`running_median`;
+- :mod:`~accelcore.reference.robust`: :func:`running_median`, :func:`sliding_median`;
 - :mod:`~accelcore.reference.heldout`: :func:`cross_validate`, the held-out fits of
   ``BlockedLeastSquares`` by refitting the rows of every other fold;
 - :mod:`~accelcore.reference.errors`: the exceptions.
@@ -47,7 +47,7 @@ from accelcore.reference.errors import (
 )
 from accelcore.reference.heldout import HeldOut, cross_validate
 from accelcore.reference.regression import RANK_RTOL, LeastSquares, LstsqSolution
-from accelcore.reference.robust import running_median
+from accelcore.reference.robust import running_median, sliding_median
 
 __all__ = [
     "N_BINS_SLACK",
@@ -69,4 +69,5 @@ __all__ = [
     "TimeOrderError",
     "cross_validate",
     "running_median",
+    "sliding_median",
 ]

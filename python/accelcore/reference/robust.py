@@ -1,4 +1,4 @@
-"""Reference centred running median (twin of ``accelcore-core/src/robust.rs``)."""
+"""Reference running and sliding medians (twins of ``accelcore-core/src/robust.rs``)."""
 
 from __future__ import annotations
 
@@ -7,10 +7,11 @@ from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import ArrayLike
 
 from accelcore.reference._common import FloatArray, check_int, vector
+from accelcore.reference.errors import ParameterError
 
-__all__ = ["running_median"]
+__all__ = ["running_median", "sliding_median"]
 
-#: Rows of the sliding-window view :func:`running_median` sorts at a time (bounds memory).
+#: Rows of the sliding-window view the medians sort at a time (bounds memory).
 _MEDIAN_CHUNK = 1 << 16
 
 
@@ -54,4 +55,42 @@ def running_median(y: ArrayLike, window: int) -> FloatArray:
         stop = min(start + _MEDIAN_CHUNK, n)
         view = sliding_window_view(padded[start : stop + 2 * half], 2 * half + 1)
         out[start:stop] = np.median(view, axis=1)
+    return out
+
+
+def sliding_median(y: ArrayLike, window: int) -> FloatArray:
+    """Median of every window ``y[j : j + window]``, ``j = 0, ..., len(y) - window``.
+
+    Output ``j`` is ``np.median(y[j : j + window])``: the middle value of an odd
+    window, the mean of the two middle values of an even one, NaN where the window
+    holds a NaN.
+
+    Parameters
+    ----------
+    y : array_like, shape (n,)
+        The series.
+    window : int
+        Window length, ``1 <= window <= n``.
+
+    Returns
+    -------
+    ndarray of float64, shape (n - window + 1,)
+        The window medians.
+
+    Raises
+    ------
+    ParameterError
+        ``window`` is not an integer >= 1, or exceeds ``len(y)``.
+    ShapeError
+        ``y`` is not 1-D.
+    """
+    check_int("window", window, 1)
+    y = vector(y, "y")
+    w = int(window)
+    if w > y.shape[0]:
+        raise ParameterError(f"window must be <= the series length {y.shape[0]}, got {w}")
+    out = np.empty(y.shape[0] - w + 1)
+    for start in range(0, out.shape[0], _MEDIAN_CHUNK):
+        stop = min(start + _MEDIAN_CHUNK, out.shape[0])
+        out[start:stop] = np.median(sliding_window_view(y[start : stop + w - 1], w), axis=1)
     return out

@@ -16,6 +16,7 @@
 //! - [`RunTally`]: what a run's raw rows looked like (rows, non-finite rows, time
 //!   span, gaps, channel ranges), shared by every reader.
 //! - [`running_median`]: a centred running median (the data-quality checks' smoother).
+//! - [`sliding_median`]: the median of every window of a series (the step check's).
 
 pub mod binning;
 pub mod compensate;
@@ -39,5 +40,5 @@ pub use reader::{
     read_run_range, CsvFormat, DigestAlgorithm, RunData, SplitPlan,
 };
 pub use regression::{LeastSquares, LstsqSolution};
-pub use robust::running_median;
+pub use robust::{running_median, sliding_median};
 pub use tally::{ChannelRange, RawStats, RunTally};

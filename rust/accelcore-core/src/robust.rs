@@ -1,4 +1,5 @@
-//! Robust smoothing of a series: a centred running median.
+//! Robust smoothing of a series: a centred running median, and the medians of
+//! every window of a series (the step check's).
 
 use std::cmp::Ordering;
 
@@ -65,6 +66,64 @@ pub fn running_median(y: &[f64], window: usize) -> Result<Vec<f64>> {
         return Ok(y.iter().map(|&v| v + 0.0).collect());
     }
     Ok(reflect_padded(y, half))
+}
+
+/// Median of every window `y[j..j + window]`, `j = 0 ..= n - window`: the
+/// `n - window + 1` values that `np.median(sliding_window_view(y, window), axis=1)`
+/// gives, bit for bit.
+///
+/// An odd window's median is its middle value; an even window's is the mean of
+/// its two middle values `a <= b`, computed as NumPy's `np.mean` does,
+/// `(0.0 + a + b) / 2`: so it overflows to infinity when `a + b` does, is NaN for
+/// `-inf` and `inf`, and a zero median is `+0.0`. A window that holds a NaN gives
+/// NaN (as `np.median`); infinities are ordinary values.
+///
+/// Cost: a sorted window slides along the series, each step ranking the leaving
+/// and the entering value and shifting the values between them: O(n · window)
+/// time, O(window) extra memory.
+///
+/// # Errors
+///
+/// [`Error::InvalidParameter`] when `window` is 0 or exceeds `y.len()`.
+///
+/// # Examples
+///
+/// ```
+/// use accelcore_core::sliding_median;
+///
+/// let y = [1.0, 9.0, 2.0, 3.0, 8.0];
+/// assert_eq!(sliding_median(&y, 3)?, vec![2.0, 3.0, 3.0]);
+/// // An even window: the mean of the two middle values.
+/// assert_eq!(sliding_median(&y, 2)?, vec![5.0, 5.5, 2.5, 5.5]);
+/// # Ok::<(), accelcore_core::Error>(())
+/// ```
+pub fn sliding_median(y: &[f64], window: usize) -> Result<Vec<f64>> {
+    let n = y.len();
+    if window == 0 || window > n {
+        return Err(Error::InvalidParameter {
+            name: "window",
+            reason: format!("must be >= 1 and <= the series length {n}, got {window}"),
+        });
+    }
+    let mut sorted = SortedWindow::new(&y[..window]);
+    let k = window / 2;
+    // `select` gives `+0.0` for `-0.0`, as the `0.0 +` of NumPy's mean does; the sum
+    // overflows where NumPy's does (`f64::midpoint` would not).
+    #[allow(clippy::manual_midpoint)]
+    let median = |w: &SortedWindow| {
+        if window % 2 == 1 {
+            w.select(k)
+        } else {
+            (w.select(k - 1) + w.select(k)) / 2.0
+        }
+    };
+    let mut out = Vec::with_capacity(n - window + 1);
+    out.push(median(&sorted));
+    for (&old, &new) in y.iter().zip(&y[window..]) {
+        sorted.replace(old, new);
+        out.push(median(&sorted));
+    }
+    Ok(out)
 }
 
 /// Output pairs per evaluation of a selection network: each row of the network
@@ -595,6 +654,71 @@ mod tests {
         }
     }
 
+    /// `np.median` of each window sorted in full: the middle value, or
+    /// `(0.0 + a + b) / 2` of the two middle values.
+    fn naive_sliding(y: &[f64], window: usize) -> Vec<f64> {
+        y.windows(window)
+            .map(|w| {
+                if w.iter().any(|v| v.is_nan()) {
+                    return f64::NAN;
+                }
+                let mut w = w.to_vec();
+                w.sort_by(f64::total_cmp);
+                let k = window / 2;
+                if window % 2 == 1 {
+                    0.0 + w[k]
+                } else {
+                    (0.0 + w[k - 1] + w[k]) / 2.0
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn sliding_window_zero_or_wider_than_the_series_is_an_invalid_parameter() {
+        for (y, window) in [(&[1.0, 2.0][..], 0), (&[1.0, 2.0][..], 3), (&[][..], 1)] {
+            assert!(matches!(
+                sliding_median(y, window),
+                Err(Error::InvalidParameter { name: "window", .. })
+            ));
+        }
+    }
+
+    #[test]
+    fn sliding_median_of_the_whole_series_and_of_single_values() {
+        let y = [4.0, -1.0, 7.0, 2.0];
+        assert_eq!(sliding_median(&y, 4).unwrap(), vec![3.0]);
+        assert_eq!(sliding_median(&y, 1).unwrap(), y.to_vec());
+        assert_eq!(sliding_median(&y, 3).unwrap(), vec![4.0, 2.0]);
+    }
+
+    #[test]
+    fn sliding_even_median_is_numpys_mean_of_the_two_middles() {
+        // (a + b) / 2 overflows where a + (b - a) / 2 would not; NumPy's mean does.
+        let big = sliding_median(&[1e308, 1.5e308], 2).unwrap();
+        assert_eq!(big, vec![f64::INFINITY]);
+        let tiny = sliding_median(&[5e-324, 5e-324], 2).unwrap();
+        assert_eq!(tiny[0].to_bits(), 5e-324f64.to_bits());
+        assert!(sliding_median(&[f64::NEG_INFINITY, f64::INFINITY], 2).unwrap()[0].is_nan());
+        let zeros = sliding_median(&[-0.0, -0.0, -0.0], 2).unwrap();
+        assert!(zeros.iter().all(|v| v.to_bits() == 0.0f64.to_bits()));
+        assert_eq!(
+            sliding_median(&[-0.0], 1).unwrap()[0].to_bits(),
+            0.0f64.to_bits()
+        );
+    }
+
+    #[test]
+    fn sliding_nan_in_a_window_propagates() {
+        let y = [1.0, 2.0, f64::NAN, 4.0, 5.0, 6.0];
+        let nan: Vec<bool> = sliding_median(&y, 2)
+            .unwrap()
+            .iter()
+            .map(|v| v.is_nan())
+            .collect();
+        assert_eq!(nan, [false, true, true, false, false]);
+    }
+
     /// Series of up to `max_len` values: small integers (many ties), reals,
     /// NaN, infinities and -0.0.
     fn series(max_len: usize) -> impl Strategy<Value = Vec<f64>> {
@@ -619,6 +743,16 @@ mod tests {
         ) {
             let got = running_median(&y, window).unwrap();
             prop_assert!(same(&got, &naive(&y, window)), "{got:?}");
+        }
+
+        #[test]
+        fn sliding_matches_sort_per_window(
+            y in series(300),
+            window in 1usize..45,
+        ) {
+            prop_assume!(window <= y.len());
+            let got = sliding_median(&y, window).unwrap();
+            prop_assert!(same(&got, &naive_sliding(&y, window)), "{got:?}");
         }
 
         #[test]

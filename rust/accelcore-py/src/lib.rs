@@ -33,7 +33,7 @@ mod _accelcore {
     #[pymodule_export]
     use super::regression::{PyLeastSquares, PyLstsqSolution};
     #[pymodule_export]
-    use super::robust::py_running_median;
+    use super::robust::{py_running_median, py_sliding_median};
 
     use pyo3::prelude::*;
 
