@@ -44,7 +44,7 @@ from .parameters import added_parameters, fit_models
 from .result import Diagnosis, Step
 from .search import confounding, variants
 from .space import FAMILIES, Spec, is_event, with_tau
-from .stats import paired_test, wrms
+from .stats import accept, wrms
 from .structure import (
     MIN_TEMPERATURE_SPAN_C,
     TEMPERATURE_FAMILIES,
@@ -208,9 +208,11 @@ class _Selection:
         finite = [o for o in opts if math.isfinite(o[2].rms_out)] or list(opts[:1])
         best_rms = min(o[2].rms_out for o in finite)
         _, label, cv, spec = next((o for o in finite if o[2].rms_out <= best_rms * 1.01), finite[0])
-        cut = 1.0 - cv.rms_out / cur.rms_out if cur.rms_out > 0 else 0.0
-        t, p = paired_test(cur.sse_blocks - cv.sse_blocks)
-        ok = cut >= self.rules.min_improvement and p < self.rules.alpha and math.isfinite(cut)
+        rules = self.rules
+        v = accept(
+            cur.sse_blocks, cv.sse_blocks, min_improvement=rules.min_improvement, alpha=rules.alpha
+        )
+        cut, t, p, ok = v.cut, v.t, v.p, v.accepted
         self.cand_rows.append(
             {
                 "step": step,

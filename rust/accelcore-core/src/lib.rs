@@ -16,6 +16,8 @@
 //! - [`RunTally`]: what a run's raw rows looked like (rows, non-finite rows, time
 //!   span, gaps, channel ranges), shared by every reader.
 //! - [`running_median`]: a centred running median (the data-quality checks' smoother).
+//! - [`stats`]: the statistics that accept or reject a term of the diagnosis (chi-square,
+//!   t and F tails, the paired test, Bonferroni and Holm, the acceptance rule).
 
 pub mod binning;
 pub mod compensate;
@@ -26,6 +28,7 @@ pub mod heldout;
 pub mod reader;
 pub mod regression;
 pub mod robust;
+pub mod stats;
 pub mod tally;
 
 pub use binning::{BinnedStats, BinnerConfig, TemperatureBinner};
