@@ -7,6 +7,9 @@ accurate to about 1e-14 for moderate degrees of freedom; with ``a`` degrees of f
 (halved) the factor ``exp(a ln x - x - lgamma(a))`` cancels terms of size ``a ln a``,
 so the relative error grows to about ``a ln(a) · 1e-16``, which the tests allow for.
 
+The arguments of the incomplete beta function are passed as ``x`` and ``y = 1 - x``
+computed each from the statistic, so that ``1 - x`` does not cancel near ``x = 1``.
+
 Conventions, as in the core: NaN in, NaN out; a chi-square with ``dof <= 0`` gives
 p = 1 (nothing tested); a t or F with ``dof <= 0`` or an infinite ``dof`` gives NaN.
 """
@@ -73,16 +76,20 @@ def _gamma_q(a: float, x: float) -> float:
     return min(1.0, front * h)
 
 
-def _betainc(a: float, b: float, x: float) -> float:
-    """Regularised incomplete beta ``I_x(a, b)``, ``a, b > 0``, ``0 <= x <= 1``."""
+def _betainc(a: float, b: float, x: float, y: float) -> float:
+    """Regularised incomplete beta ``I_x(a, b)``, ``a, b > 0``, ``x + y = 1``, both in [0, 1].
+
+    ``y`` is given beside ``x``: a caller near ``x = 1`` knows ``y`` to more digits than
+    ``1 - x`` would keep.
+    """
     if x <= 0.0:
         return 0.0
-    if x >= 1.0:
+    if y <= 0.0:
         return 1.0
     if x > (a + 1.0) / (a + b + 2.0):
-        return 1.0 - _betainc(b, a, 1.0 - x)
+        return 1.0 - _betainc(b, a, y, x)
     lbeta = math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b)
-    front = math.exp(lbeta + a * math.log(x) + b * math.log1p(-x))
+    front = math.exp(lbeta + a * math.log(x) + b * math.log(y))
 
     def guard(v: float) -> float:
         return _TINY if abs(v) < _TINY else v
@@ -103,6 +110,13 @@ def _betainc(a: float, b: float, x: float) -> float:
         if abs(delta - 1.0) < _EPS:
             break
     return min(1.0, front * h / a)
+
+
+def _ratio_tail(a: float, b: float, r: float) -> float:
+    """``I_x(a, b)`` at ``x = 1 / (1 + r)``, ``y = r / (1 + r)``; 0 when ``r`` overflows."""
+    if math.isinf(r):
+        return 0.0
+    return _betainc(a, b, 1.0 / (1.0 + r), r / (1.0 + r))
 
 
 def _valid_dof(dof: float) -> bool:
@@ -149,7 +163,8 @@ def t_sf(t: float, dof: float) -> float:
     float
         ``I_x(dof/2, 1/2) / 2`` with ``x = dof / (dof + t²)`` for ``t > 0``, 1 minus it
         for ``t < 0``, 0.5 at 0; NaN for a NaN argument or a ``dof`` that is not > 0
-        and finite.
+        and finite. Where ``t² / dof`` overflows (``|t| > 1e154``) the tail is taken as
+        0; the core carries on (the Cauchy tail at ``t = 1e200`` is 3e-201).
     """
     if math.isnan(t) or not _valid_dof(dof):
         return math.nan
@@ -157,7 +172,7 @@ def t_sf(t: float, dof: float) -> float:
         return 0.5
     if math.isinf(t):
         return 0.0 if t > 0 else 1.0
-    tail = 0.5 * _betainc(0.5 * dof, 0.5, dof / (dof + t * t))
+    tail = 0.5 * _ratio_tail(0.5 * dof, 0.5, t * t / dof)
     return tail if t > 0 else 1.0 - tail
 
 
@@ -183,7 +198,7 @@ def f_sf(f: float, dfn: float, dfd: float) -> float:
         return 1.0
     if math.isinf(f):
         return 0.0
-    return _betainc(0.5 * dfd, 0.5 * dfn, dfd / (dfd + dfn * f))
+    return _ratio_tail(0.5 * dfd, 0.5 * dfn, dfn * f / dfd)
 
 
 @dataclass(frozen=True)
