@@ -759,6 +759,243 @@ def merge_runs(pieces: list[RunData], /, *, min_count: int = 1, rate_hz: float =
     with fewer than ``min_count`` samples are dropped; counters add.
     """
 
+# ----------------------------------------------------------------- statistics
+
+def chi2_sf(x: float, /, *, dof: float) -> float:
+    """Survival function of the chi-square distribution, ``P(X > x)``.
+
+    Parameters
+    ----------
+    x : float
+        The statistic.
+    dof : float
+        Degrees of freedom (need not be an integer).
+
+    Returns
+    -------
+    float
+        ``Q(dof / 2, x / 2)``, about 1e-13 relative in either tail; 1 for ``x <= 0``
+        and for ``dof <= 0`` (nothing tested), 0 for ``x = inf``, NaN for a NaN
+        argument or an infinite ``dof``.
+    """
+
+def t_sf(t: float, /, *, dof: float) -> float:
+    """One-sided upper tail of Student's t, ``P(T > t)``.
+
+    Parameters
+    ----------
+    t : float
+        The statistic.
+    dof : float
+        Degrees of freedom, > 0 and finite (need not be an integer).
+
+    Returns
+    -------
+    float
+        The tail, about 1e-13 relative; 0.5 at ``t = 0``, ``t_sf(-t) = 1 - t_sf(t)``.
+        NaN for a NaN argument or a ``dof`` that is not > 0 and finite.
+    """
+
+def f_sf(f: float, /, *, dfn: float, dfd: float) -> float:
+    """Survival function of Fisher's F, ``P(F > f)``: the p-value of a nested-model F test.
+
+    Parameters
+    ----------
+    f : float
+        The statistic.
+    dfn, dfd : float
+        Numerator and denominator degrees of freedom, > 0 and finite.
+
+    Returns
+    -------
+    float
+        The tail, about 1e-13 relative; 1 for ``f <= 0``, 0 for ``f = inf``, NaN for a
+        NaN argument or degrees of freedom that are not > 0 and finite.
+    """
+
+@final
+class PairedTest:
+    """Result of :func:`paired_test`.
+
+    Attributes
+    ----------
+    t : float
+        Student's t of the mean difference, ``mean / (sd / sqrt(n))``.
+    p : float
+        One-sided p-value that the mean is positive, ``t_sf(t, dof=n - 1)``.
+    n : int
+        Number of differences.
+    """
+
+    @property
+    def t(self) -> float: ...
+    @property
+    def p(self) -> float: ...
+    @property
+    def n(self) -> int: ...
+
+def paired_test(diff: ArrayLike, /) -> PairedTest:
+    """One-sided paired t-test that the mean of ``diff`` is positive.
+
+    Parameters
+    ----------
+    diff : array_like, shape (n,)
+        The differences (converted to float64).
+
+    Returns
+    -------
+    PairedTest
+        ``t = mean / (sd / sqrt(n))`` with the sample sd, ``p = t_sf(t, dof=n - 1)``.
+        Fewer than two differences: ``t = nan``, ``p = 1``. A NaN or infinite
+        difference: ``t = p = nan``. Every difference equal: ``t = inf``, ``p = 0`` when
+        they are positive, else ``t = 0``, ``p = 1``.
+
+    Raises
+    ------
+    ShapeError
+        ``diff`` is not 1-D.
+    """
+
+def bonferroni(p: ArrayLike, /, *, n_tests: int | None = None) -> NDArray[np.float64]:
+    """Bonferroni-adjusted p-values, ``min(1, m p)``.
+
+    Parameters
+    ----------
+    p : array_like, shape (k,)
+        P-values in [0, 1]; a NaN stays NaN.
+    n_tests : int, optional
+        Number of tests ``m >= k``, when only the smallest p-values were computed;
+        default ``k``.
+
+    Returns
+    -------
+    ndarray of float64, shape (k,)
+        The adjusted p-values.
+
+    Raises
+    ------
+    ParameterError
+        A p-value outside [0, 1], or ``n_tests < k``.
+    ShapeError
+        ``p`` is not 1-D.
+    """
+
+def holm(p: ArrayLike, /, *, n_tests: int | None = None) -> NDArray[np.float64]:
+    """Holm's step-down adjusted p-values, in the order given.
+
+    Parameters
+    ----------
+    p : array_like, shape (k,)
+        P-values in [0, 1]; a NaN stays NaN and ranks after every other.
+    n_tests : int, optional
+        Number of tests ``m >= k`` (the untested ones rank last); default ``k``.
+
+    Returns
+    -------
+    ndarray of float64, shape (k,)
+        With the p-values sorted increasing, the ``j``-th (from 0) becomes the running
+        maximum of ``min(1, (m - j) p_(j))``: never above :func:`bonferroni`, equal for
+        ties.
+
+    Raises
+    ------
+    ParameterError
+        A p-value outside [0, 1], or ``n_tests < k``.
+    ShapeError
+        ``p`` is not 1-D.
+    """
+
+@final
+class Acceptance:
+    """The verdict of an :class:`AcceptanceRule` and its figures.
+
+    Attributes
+    ----------
+    accepted : bool
+        The term is added.
+    cut : float
+        Fraction of the held-out RMS error cut, ``1 - sqrt(sum(candidate) / sum(current))``
+        (0 when the current sum is not positive, negative when the candidate is worse).
+    t : float
+        Student's t of the paired test of ``current - candidate`` per block.
+    p : float
+        The rule's one-sided p-value, ``min(1, 2 min(p_sum, p_log))`` (NaN when
+        ``p_sum`` is).
+    p_sum : float
+        One-sided p-value of the paired test of ``current - candidate`` (the total).
+    p_log : float
+        One-sided p-value of the paired test of ``log(current / candidate)`` over the
+        blocks where both are positive (every block alike).
+    n : int
+        Blocks compared.
+    """
+
+    @property
+    def accepted(self) -> bool: ...
+    @property
+    def cut(self) -> float: ...
+    @property
+    def t(self) -> float: ...
+    @property
+    def p(self) -> float: ...
+    @property
+    def p_sum(self) -> float: ...
+    @property
+    def p_log(self) -> float: ...
+    @property
+    def n(self) -> int: ...
+
+@final
+class AcceptanceRule:
+    """When the diagnosis adds a term to an axis.
+
+    The held-out RMS error falls by at least ``min_improvement`` *and* the paired
+    one-sided test over blocks gives ``p < alpha``: two paired t-tests, on the per-block
+    change of held-out squared error (the total) and on its log ratio (every block
+    alike), Bonferroni-combined.
+    Not adjusted for the number of candidates compared: ``min_improvement`` guards
+    against a lucky one.
+
+    Parameters
+    ----------
+    min_improvement : float
+        Least fraction of the held-out RMS error cut, in [0, 1).
+    alpha : float
+        Level of the paired test, in (0, 1).
+
+    Raises
+    ------
+    ParameterError
+        A value out of range.
+    """
+
+    def __new__(cls, *, min_improvement: float, alpha: float) -> AcceptanceRule: ...
+    @property
+    def min_improvement(self) -> float: ...
+    @property
+    def alpha(self) -> float: ...
+    def judge(self, current_sse: ArrayLike, candidate_sse: ArrayLike, /) -> Acceptance:
+        """Judge a candidate from the held-out squared error per block, before and after.
+
+        Parameters
+        ----------
+        current_sse, candidate_sse : array_like, shape (n_blocks,)
+            Held-out squared error of each block under the current model and under the
+            candidate, same blocks in the same order.
+
+        Returns
+        -------
+        Acceptance
+            ``accepted`` when ``cut >= min_improvement``, ``p < alpha`` and ``cut`` is
+            finite; a NaN gives a NaN figure and a rejection; fewer than two blocks give
+            ``p = 1``.
+
+        Raises
+        ------
+        ShapeError
+            The two differ in length, or one is not 1-D.
+        """
+
 def _blocks_from_arrays(
     block_index: ArrayLike,
     count: ArrayLike,

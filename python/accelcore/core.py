@@ -13,6 +13,10 @@ result of one pass over ``a``'s input followed by ``b``'s.
   :class:`FoldedLeastSquares`, its folds fixed, cross-validates any subset of columns.
 - :func:`running_median`: a centred running median (the data-quality checks' smoother);
   :func:`sliding_median`, the median of every window (the step check's).
+- The statistics that accept or reject a term of the diagnosis: :func:`chi2_sf`,
+  :func:`t_sf`, :func:`f_sf` (survival functions), :func:`paired_test`,
+  :func:`bonferroni`, :func:`holm` and :class:`AcceptanceRule` (its verdict an
+  :class:`Acceptance`).
 
 All computation runs in Rust with the GIL released. ``accelcore.reference``
 holds an independent NumPy implementation of the same specification.
@@ -21,6 +25,8 @@ holds an independent NumPy implementation of the same specification.
 from __future__ import annotations
 
 from accelcore._accelcore import (
+    Acceptance,
+    AcceptanceRule,
     BinnedStats,
     BlockedLeastSquares,
     DecimatedBlocks,
@@ -29,12 +35,21 @@ from accelcore._accelcore import (
     HeldOutFit,
     LeastSquares,
     LstsqSolution,
+    PairedTest,
     TemperatureBinner,
+    bonferroni,
+    chi2_sf,
+    f_sf,
+    holm,
+    paired_test,
     running_median,
     sliding_median,
+    t_sf,
 )
 
 __all__ = [
+    "Acceptance",
+    "AcceptanceRule",
     "BinnedStats",
     "BlockedLeastSquares",
     "DecimatedBlocks",
@@ -43,7 +58,14 @@ __all__ = [
     "HeldOutFit",
     "LeastSquares",
     "LstsqSolution",
+    "PairedTest",
     "TemperatureBinner",
+    "bonferroni",
+    "chi2_sf",
+    "f_sf",
+    "holm",
+    "paired_test",
     "running_median",
     "sliding_median",
+    "t_sf",
 ]

@@ -37,7 +37,7 @@ from accelcore.model import AXES, Constant, RunStep, Term
 
 from .engine import Engine
 from .space import EVENT_PREFIX, Spec
-from .stats import chi2_sf, t_sf
+from .stats import chi2_sf, corrected_p, t_sf
 
 __all__ = ["find_run_events"]
 
@@ -121,7 +121,7 @@ def find_run_events(
     steps: list[Term] = []
     for idx, label in zip(runs, labels, strict=True):
         k, stat, _ = _best_jump(resid, idx, eng.elapsed_s)
-        if k < 0 or chi2_sf(stat, 3) * n_windows >= alpha:
+        if k < 0 or corrected_p(chi2_sf(stat, 3), n_windows) >= alpha:
             continue
         t0 = float(f"{eng.elapsed_s[idx[k]]:.4g}")
         effect = f"{EVENT_PREFIX}step in {label} at {t0:g} s"
@@ -212,4 +212,4 @@ def _level_passes(
     # Student's t of the run's level against its block means' scatter (which holds
     # the run's own slow structure), two-sided, over every (axis, run) tried.
     t_stat = abs(float(np.mean(means))) / se
-    return 2.0 * t_sf(t_stat, m - 1) * n_tests < alpha
+    return corrected_p(2.0 * t_sf(t_stat, m - 1), n_tests) < alpha

@@ -7,8 +7,8 @@ are held out (three runs or more, when every fold keeps the orientations that id
 each axis), else the legs of the temperature cycle, else thirds of each run in time. A
 family is added to an axis when the axis' held-out RMS error falls by at least
 ``min_improvement`` *and* the paired one-sided test over held-out blocks of ``block_s``
-seconds (:func:`improvement_test`: the per-block change of the squared error and its
-log ratio) is significant at ``alpha``. Each
+seconds (:class:`accelcore.core.AcceptanceRule`: the per-block change of the squared
+error and its log ratio) is significant at ``alpha``. Each
 step adds the family with the largest total cut of held-out squared error over the axes
 that accept it, then revisits the lag of every axis, and repeats.
 
@@ -28,7 +28,6 @@ from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
 
 from accelcore.errors import ParameterError
 from accelcore.input.quality import QualityIssue, check_session
@@ -46,7 +45,7 @@ from .parameters import added_parameters, fit_models
 from .result import Diagnosis, Step
 from .search import confounding, variants
 from .space import FAMILIES, Spec, is_event, with_tau
-from .stats import paired_test, wrms
+from .stats import accept, wrms
 from .structure import (
     MIN_TEMPERATURE_SPAN_C,
     TEMPERATURE_FAMILIES,
@@ -210,9 +209,11 @@ class _Selection:
         finite = [o for o in opts if math.isfinite(o[2].rms_out)] or list(opts[:1])
         best_rms = min(o[2].rms_out for o in finite)
         _, label, cv, spec = next((o for o in finite if o[2].rms_out <= best_rms * 1.01), finite[0])
-        cut = 1.0 - cv.rms_out / cur.rms_out if cur.rms_out > 0 else 0.0
-        t, p = improvement_test(cur.sse_blocks, cv.sse_blocks)
-        ok = cut >= self.rules.min_improvement and p < self.rules.alpha and math.isfinite(cut)
+        rules = self.rules
+        v = accept(
+            cur.sse_blocks, cv.sse_blocks, min_improvement=rules.min_improvement, alpha=rules.alpha
+        )
+        cut, t, p, ok = v.cut, v.t, v.p, v.accepted
         self.cand_rows.append(
             {
                 "step": step,
@@ -333,23 +334,6 @@ def _best_family(
     return named
 
 
-def improvement_test(
-    before: NDArray[np.float64], after: NDArray[np.float64]
-) -> tuple[float, float]:
-    """Paired one-sided test that a candidate lowers the held-out error per block: (t, p).
-
-    Two paired t-tests over the blocks, Bonferroni-combined (``p = 2 min(p1, p2)``):
-    on the change of squared error (blocks weigh by their error: the test of the
-    total) and on the log ratio of the errors (every block alike: the test of a cut
-    that holds broadly while a few blocks dominate the total, as when a log's
-    blocks see very different temperatures). ``t`` is the first test's.
-    """
-    t, p_sum = paired_test(before - after)
-    both = (before > 0) & (after > 0)
-    _, p_log = paired_test(np.log(before[both]) - np.log(after[both]))
-    return t, min(1.0, 2.0 * min(p_sum, p_log))
-
-
 def _pooled(values: Mapping[str, float]) -> float:
     return math.sqrt(sum(v * v for v in values.values()) / len(values))
 
@@ -399,7 +383,7 @@ def diagnose(
         Least relative cut of an axis' held-out RMS error for an effect to be added.
     alpha : float, default 0.01
         Level of the paired one-sided test over held-out blocks
-        (:func:`improvement_test`).
+        (:class:`accelcore.core.AcceptanceRule`).
     block_s : float, default 300
         Length of the blocks of the paired test, s.
     max_order : int, default 5

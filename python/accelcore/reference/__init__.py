@@ -23,6 +23,9 @@ One module per kernel, named as its Rust twin in ``rust/accelcore-core/src``:
 - :mod:`~accelcore.reference.robust`: :func:`running_median`, :func:`sliding_median`;
 - :mod:`~accelcore.reference.heldout`: :func:`cross_validate`, the held-out fits of
   ``BlockedLeastSquares`` by refitting the rows of every other fold;
+- :mod:`~accelcore.reference.stats`: the statistics that accept or reject a term
+  (:func:`chi2_sf`, :func:`t_sf`, :func:`f_sf`, :func:`paired_test`, :func:`bonferroni`,
+  :func:`holm`, :class:`AcceptanceRule`), plain functions rather than kernels;
 - :mod:`~accelcore.reference.errors`: the exceptions.
 
 The reference raises its own exception classes, which carry the same names as
@@ -48,10 +51,23 @@ from accelcore.reference.errors import (
 from accelcore.reference.heldout import HeldOut, cross_validate
 from accelcore.reference.regression import RANK_RTOL, LeastSquares, LstsqSolution
 from accelcore.reference.robust import running_median, sliding_median
+from accelcore.reference.stats import (
+    Acceptance,
+    AcceptanceRule,
+    PairedTest,
+    bonferroni,
+    chi2_sf,
+    f_sf,
+    holm,
+    paired_test,
+    t_sf,
+)
 
 __all__ = [
     "N_BINS_SLACK",
     "RANK_RTOL",
+    "Acceptance",
+    "AcceptanceRule",
     "BinnedStats",
     "DecimatedBlocks",
     "Decimator",
@@ -61,13 +77,20 @@ __all__ = [
     "LeastSquares",
     "LstsqSolution",
     "NonFiniteError",
+    "PairedTest",
     "ParameterError",
     "ReferenceKernelError",
     "ShapeError",
     "SingularSystemError",
     "TemperatureBinner",
     "TimeOrderError",
+    "bonferroni",
+    "chi2_sf",
     "cross_validate",
+    "f_sf",
+    "holm",
+    "paired_test",
     "running_median",
     "sliding_median",
+    "t_sf",
 ]

@@ -17,6 +17,8 @@
 //!   span, gaps, channel ranges), shared by every reader.
 //! - [`running_median`]: a centred running median (the data-quality checks' smoother).
 //! - [`sliding_median`]: the median of every window of a series (the step check's).
+//! - [`stats`]: the statistics that accept or reject a term of the diagnosis (chi-square,
+//!   t and F tails, the paired test, Bonferroni and Holm, the acceptance rule).
 
 pub mod binning;
 pub mod compensate;
@@ -27,6 +29,7 @@ pub mod heldout;
 pub mod reader;
 pub mod regression;
 pub mod robust;
+pub mod stats;
 pub mod tally;
 
 pub use binning::{BinnedStats, BinnerConfig, TemperatureBinner};
