@@ -71,13 +71,18 @@ _EPILOGS = {
     "init": """examples:
   accelcore init /data/chamber/part17
   accelcore init /data/chamber/part17 --units V --rate-hz 20 --sensor ADXL335 --force
+  accelcore init /data/chamber/sweep.csv        (then: accelcore calibrate /data/chamber)
 
   Writes FOLDER/session.toml for the logs (.csv, .tsv, .txt, .dat) of FOLDER,
   one run each: delimiter, columns and time unit from the header, each run's
   orientation from its file name (x_pos, OX+, xp, zminus, +z ...) or else from
   its mean output (gravity), units from the size of the output and the rate
-  from the median time step. Prints every guess; asks nothing. An existing
-  session.toml is kept (exit status 2) unless --force.""",
+  from the median time step. Given one log (.csv, .txt, .tsv, .dat, .parquet,
+  .tdms), writes the session.toml beside it with log = that file: the
+  orientation column found among its columns (labels OX+ ... OZ-), a TDMS
+  file's groups by their orientation property, name or mean output. Prints
+  every guess; asks nothing. An existing session.toml is kept (exit status 2)
+  unless --force; an input is never written over.""",
     "simulate": """example:
   accelcore simulate /tmp/adxl335-session --sensor ADXL335 --seed 7 --duration-h 2""",
     "bench": """example:
@@ -287,8 +292,13 @@ def build_parser() -> argparse.ArgumentParser:
     _add_no_cache(p)
     p.set_defaults(func=commands.cmd_report, data_path="path")
 
-    p = add("init", "write a session.toml for a folder of logs, guessing its layout")
-    p.add_argument("folder", metavar="FOLDER", help="folder of logs, one run per file")
+    p = add("init", "write a session.toml for a folder of logs or for one log, guessing its layout")
+    p.add_argument(
+        "folder",
+        metavar="FOLDER|LOG",
+        help="folder of logs, one run per file; or one log (.csv, .parquet, .tdms ...) with an "
+        "orientation column or groups, its session.toml written beside it (log = ...)",
+    )
     p.add_argument("--force", action="store_true", help="write over an existing session.toml")
     p.add_argument("--units", choices=UNITS, help="output units (default: guessed)")
     p.add_argument("--rate-hz", type=_positive, metavar="HZ", help="default: median time step")
