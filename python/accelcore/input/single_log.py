@@ -76,10 +76,10 @@ def _read(spec: LogSpec, fmt: SessionFormat, **options: Any) -> Session:
             **shared,
         )
     if spec.layout == PARQUET:
-        assert not isinstance(spec.orientation, dict)
+        assert spec.orientation is None or isinstance(spec.orientation, str)
         return read_parquet(
             spec.path,
-            orientation=None if spec.orientation is None else str(spec.orientation),
+            orientation=spec.orientation,
             orientation_column=spec.orientation_column,
             columns=columns,
             **shared,

@@ -328,7 +328,7 @@ def _tdms(log: Path, args: argparse.Namespace) -> LogGuess:
             else np.asarray(t, dtype=np.float64) * TIME_UNITS[time_unit]
         )
     elif increment:
-        time_unit, seconds = "s", np.arange(3, dtype=np.float64) * float(increment)
+        time_unit, seconds = "s", np.empty(0)
     else:
         raise CliDataError(
             f"{log}: no time channel among {', '.join(header)} and no wf_increment property"
@@ -345,14 +345,23 @@ def _tdms(log: Path, args: argparse.Namespace) -> LogGuess:
         log=log,
         layout=TDMS,
         units=units,
-        rate_hz=_rate(log, seconds, args, how),
+        rate_hz=_rate(log, seconds, args, how, _wf_rate(increment)),
         time_unit=time_unit,
-        columns={r: n for r, n in columns.items()},
+        columns=dict(columns),
         how=how,
     )
     _settle_units(guess, args, stated)
     _group_orientations(guess, groups, means)
     return guess  # sensor and serial: the reader takes the file's own properties
+
+
+def _wf_rate(increment: object) -> float | None:
+    """Return the rate a waveform's ``wf_increment`` states (6 significant digits)."""
+    try:
+        step = float(increment)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
+    return float(f"{1.0 / step:.6g}") if math.isfinite(step) and step > 0 else None
 
 
 def _group_orientations(
