@@ -311,8 +311,12 @@ def _tdms(log: Path, args: argparse.Namespace) -> LogGuess:
     groups = [g for g in tdms.groups() if g.channels()]
     if not groups:
         raise CliDataError(f"{log}: no group holds channels")
-    header = [c.name for c in groups[0].channels()]
-    columns = guess_columns(header)
+    # The channels of the first group where every role is found (a settings group
+    # before the runs says nothing).
+    headers = [[c.name for c in g.channels()] for g in groups]
+    guessed = [guess_columns(h) for h in headers]
+    first = next((i for i, c in enumerate(guessed) if {"temperature", *AXES} <= set(c)), 0)
+    header, columns = headers[first], guessed[first]
     _require_roles(log, columns, header, optional="time")
     needed = [columns[r] for r in ("temperature", *AXES)]
     groups = [g for g in groups if all(c in [ch.name for ch in g.channels()] for c in needed)]

@@ -24,7 +24,8 @@ _EPILOGS = {
     "calibrate": """example:
   accelcore calibrate examples/adxl335-demo/generated --method joint --t-ref 25 \\
       --window 0 60 --json cal-result.json --save adxl335.cal.json
-  accelcore calibrate thermal_sweep.ulg --instance 1 --save px4-imu1.cal.json""",
+  accelcore calibrate thermal_sweep.ulg --instance 1 --save px4-imu1.cal.json
+  accelcore calibrate chamber/sweep.parquet   (its session.toml names it: log = ...)""",
     "compensate": """example:
   accelcore compensate adxl335.cal.json flight_log.csv -o flight_log_g.csv \\
       --column temperature=die_temp --column time=t_ms --time-unit ms
@@ -96,6 +97,13 @@ _EPILOGS = {
   accelcore demo                      (the bundled example, generated on first use)
   accelcore demo --dir /tmp/demo      (somewhere else)""",
 }
+
+
+#: What a SESSION argument may be.
+_SESSION_HELP = (
+    "session folder (holding session.toml), a single log it names or that states its "
+    "settings (.csv, .parquet, .tdms ...), or a PX4 .ulg / ArduPilot .bin log"
+)
 
 
 def _window(text: str) -> float:
@@ -177,7 +185,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "session",
         metavar="SESSION",
-        help="session folder (holding session.toml), or a PX4 .ulg / ArduPilot .bin log",
+        help=_SESSION_HELP,
     )
     p.add_argument("--method", choices=("joint", "paper"), default="joint", help="default: joint")
     p.add_argument("--t-ref", type=_window, default=25.0, metavar="C", help="default: 25 °C")
@@ -248,7 +256,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "session",
         metavar="SESSION",
-        help="session folder (holding session.toml), or a PX4 .ulg / ArduPilot .bin log",
+        help=_SESSION_HELP,
     )
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
     p.add_argument(
@@ -280,7 +288,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "path",
         metavar="SESSION|OUT",
-        help="session folder, flight log (.ulg, .bin), or output folder of accelcore bulk",
+        help="session folder, log (.csv, .parquet, .tdms ...; .ulg, .bin), or output folder of "
+        "accelcore bulk",
     )
     p.add_argument(
         "-o",
