@@ -374,7 +374,8 @@ def open_log(
     if problem is not None:
         raise SessionFormatError(problem)
     settings = own_settings(path)
-    assert not isinstance(settings, str)  # else alone_problem says why
+    if isinstance(settings, str):  # the file changed since alone_problem read it
+        raise SessionFormatError(what_to_do(path, settings))
     options = {"decimation_factor": decimation_factor, "min_count": min_count, **settings}
     if layout == PARQUET:
         return read_parquet(path, **options)

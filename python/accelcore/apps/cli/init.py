@@ -37,6 +37,7 @@ from accelcore.apps.cli.guesses import (
     guess_columns,
     orientation_from_means,
     orientation_from_name,
+    rate_of,
     time_unit_of,
     toml_value,
     units_of,
@@ -141,12 +142,9 @@ def _init_runs(folder: Path, logs: list[Path], args: argparse.Namespace, out: Te
     rate = args.rate_hz
     if rate is None:
         t = frames[logs[0].name][columns["time"]].to_numpy(dtype=np.float64)
-        t = t * TIME_UNITS[time_unit]
-        steps = np.diff(t[np.isfinite(t)])
-        steps = steps[steps > 0]
-        if steps.size == 0:
+        rate = rate_of(t * TIME_UNITS[time_unit])
+        if rate is None:
             raise CliDataError(f"{logs[0]}: fewer than two time stamps; give --rate-hz")
-        rate = float(f"{1.0 / float(np.median(steps)):.6g}")
     by_gravity = orientation_from_means(means, units)
     runs: dict[str, str] = {}
     how: dict[str, str] = {}
