@@ -26,7 +26,8 @@ from accelcore.errors import (
     TimeOrderError,
 )
 from accelcore.fitting.calibrate import calibrate
-from accelcore.input.session import Run, Session, load_session
+from accelcore.input.session import Run, Session
+from accelcore.input.single_log import load_session
 from accelcore.result.calibration import Calibration
 
 __all__ = [

@@ -1,8 +1,10 @@
 """Input room: from files (or arrays) on disk to decimated runs.
 
-Holds the session format (:mod:`.format`, the one reader of ``session.toml``), the
-sessions and the Rust CSV reader (:mod:`.session`), the other readers (:mod:`.readers`:
-single-log, Parquet and TDMS files), the persistent run cache (:mod:`.cache`, its
+Holds the session format (:mod:`.format`, the one reader of ``session.toml``; the keys
+of a session that names one log in :mod:`.log_format`), the sessions and the Rust CSV
+reader (:mod:`.session`), the other readers (:mod:`.readers`: single-log, Parquet, TDMS
+and flight logs), the sessions of one log and :func:`accelcore.load_session`
+(:mod:`.single_log`), the persistent run cache (:mod:`.cache`, its
 entry file in :mod:`.cache_entry`), the data-quality screening of runs
 (:mod:`.quality`), the checks of in-memory runs (:mod:`.frames`) and of header
 names (:mod:`.headers`), and the consistency of a session's labels, units and

@@ -39,6 +39,7 @@ from accelcore.constants import (
 )
 from accelcore.errors import AccelcoreIOError, SessionFormatError
 from accelcore.files import check_input_file, file_kind
+from accelcore.input.log_format import LOG_KEYS, LogSpec, read_log_keys, run_columns
 
 __all__ = [
     "TOML_NAME",
@@ -157,7 +158,7 @@ class SessionFormat:
         temperature (:attr:`has_temperature`). Every other column of a log is an
         extra observable.
     runs : tuple of RunSpec
-        The ``[[run]]`` tables, in order.
+        The ``[[run]]`` tables, in order (none when the session names one log).
     sha256 : str
         SHA-256 of the bytes of ``session.toml`` that were parsed.
     lab : mapping of str to str
@@ -167,6 +168,9 @@ class SessionFormat:
     gravity_m_s2 : float
         The local gravity, m/s² (the ``gravity_m_s2`` key; default standard
         gravity): what 1 g of the orientations is in a session in ``m/s2``.
+    log : LogSpec or None
+        The one log the session names (``log =``, :mod:`accelcore.input.log_format`)
+        in place of ``[[run]]`` tables; None for a folder of run files.
     """
 
     folder: Path
@@ -182,6 +186,7 @@ class SessionFormat:
     sha256: str
     lab: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
     gravity_m_s2: float = STANDARD_GRAVITY
+    log: LogSpec | None = None
 
     @property
     def toml_path(self) -> Path:
@@ -212,8 +217,8 @@ class SessionFormat:
 
     @property
     def run_files(self) -> tuple[Path, ...]:
-        """Every run's log file, in order."""
-        return tuple(r.path for r in self.runs)
+        """Every run's log file, in order (the one log, for a session that names one)."""
+        return (self.log.path,) if self.log is not None else tuple(r.path for r in self.runs)
 
     @classmethod
     def read(cls, path: str | Path, *, check_files: bool = True) -> SessionFormat:
@@ -361,8 +366,14 @@ class SessionFormat:
                 f"{where}: gravity_m_s2 must be the local gravity in m/s² (9.7 to 9.9; "
                 f"standard {STANDARD_GRAVITY}), got {gravity!r}"
             )
-        columns = _columns(meta.get("columns", {}), where)
-        runs = _runs(meta.get("run"), folder, where, check_files=check_files)
+        log = read_log_keys(meta, folder, where)
+        columns = _columns(run_columns(meta.get("columns", {})), where)
+        if log is not None and log.orientation_column is not None:
+            named = {k: v for k, v in columns.items() if v}
+            check_distinct_columns({**named, "orientation": log.orientation_column}, where)
+        if log is not None and check_files:
+            _check_run_file(log.path, f"{where}, key 'log'", "log")
+        runs = () if log else _runs(meta.get("run"), folder, where, check_files=check_files)
         sensor = meta.get("sensor") or None
         serial = meta.get("serial") or None
         lab = _lab(meta.get("lab", {}), where)
@@ -380,6 +391,7 @@ class SessionFormat:
             sha256=sha256,
             lab=MappingProxyType(lab),
             gravity_m_s2=float(gravity),
+            log=log,
         )
 
 
@@ -396,6 +408,7 @@ TOP_KEYS = (
     "columns",
     "run",
     "lab",
+    *LOG_KEYS,
 )
 RUN_KEYS = ("file", "orientation")
 LAB_KEYS = ("date", "operator", "chamber", "reference_probe", "notes")
@@ -472,7 +485,10 @@ def check_distinct_columns(columns: Mapping[str, str], where: str) -> None:
 def _runs(tables: object, folder: Path, where: str, *, check_files: bool) -> tuple[RunSpec, ...]:
     """Check the ``[[run]]`` tables, in order."""
     if not isinstance(tables, list) or not tables:
-        raise SessionFormatError(f"{where}: no [[run]] table; a session needs at least one run")
+        raise SessionFormatError(
+            f"{where}: no [[run]] table; a session needs at least one run "
+            '(or log = "FILE": one log with an orientation column)'
+        )
     specs: list[RunSpec] = []
     for i, table in enumerate(tables, start=1):
         if not isinstance(table, dict):
@@ -509,18 +525,18 @@ def _same_file(a: Path, b: Path) -> bool:
         return False
 
 
-def _check_run_file(file: Path, where: str) -> None:
-    """Refuse a run file that is missing or not a regular file (a folder, FIFO, device)."""
+def _check_run_file(file: Path, where: str, what: str = "run file") -> None:
+    """Refuse a run file (or log) that is missing or not a regular file (a folder, FIFO, device)."""
     try:
         mode = file.stat().st_mode
     except FileNotFoundError:
-        reason = "run file does not exist"
+        reason = f"{what} does not exist"
     except OSError as exc:
-        reason = f"run file cannot be read ({exc.strerror})"
+        reason = f"{what} cannot be read ({exc.strerror})"
     else:
         if stat.S_ISREG(mode):
             return
-        reason = f"run file is {file_kind(mode)}, not a log file"
+        reason = f"{what} is {file_kind(mode)}, not a log file"
     err = AccelcoreIOError(f"{file}: {reason} ({where})")
     err.path = str(file)
     raise err

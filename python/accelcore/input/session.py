@@ -429,6 +429,11 @@ def load_session(
     if digest not in DIGESTS:
         raise _parameter("digest", f"must be one of {', '.join(DIGESTS)}, got {digest!r}")
     fmt = SessionFormat.read(path)
+    if fmt.log is not None:  # one log, not run files: accelcore.input.single_log reads it
+        raise SessionFormatError(
+            f"{fmt.toml_path}: names one log (log = {fmt.log.file!r}); read it with "
+            "accelcore.load_session"
+        )
     if decimation_factor is None:
         decimation_factor = default_decimation_factor(fmt.rate_hz)
         _check_read_options(decimation_factor, min_count)

@@ -150,7 +150,8 @@ def _pick_run(session: Session, run: int | str | None) -> Run:
 def _read_raw(session: Session, run: Run, axis: str) -> tuple[NDArray[np.float64], ...] | None:
     """Re-read temperature and one axis of a run's raw log; None for in-memory runs."""
     fmt = session.format
-    if run.source is None or fmt is None:
+    # A run of a single log (fmt.log) is a stretch of it, not a file: not re-read.
+    if run.source is None or fmt is None or fmt.log is not None:
         return None
     path = Path(run.source)
     names = (fmt.columns["temperature"], fmt.columns[axis])

@@ -17,9 +17,10 @@ writes it to stdout instead of the human-readable output.
 Modules: :mod:`~accelcore.apps.cli.entry` (:func:`main`: dispatch, exit status,
 errors and warnings on stderr), :mod:`~accelcore.apps.cli.parser` (the options),
 :mod:`~accelcore.apps.cli.commands` (one function per subcommand; ``compensate``
-in :mod:`~accelcore.apps.cli.compensate`, ``init`` in :mod:`~accelcore.apps.cli.init`),
-:mod:`~accelcore.apps.cli.inputs` (session folders or flight logs, output guards,
-missing extras) and
+in :mod:`~accelcore.apps.cli.compensate`, ``init`` in :mod:`~accelcore.apps.cli.init`
+and, for one log, :mod:`~accelcore.apps.cli.init_log`, their guesses in
+:mod:`~accelcore.apps.cli.guesses`), :mod:`~accelcore.apps.cli.inputs` (session
+folders, single logs or flight logs, output guards, missing extras) and
 :mod:`~accelcore.apps.cli.documents` (the ``--json`` envelope and its writer).
 """
 

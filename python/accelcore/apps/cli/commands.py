@@ -36,7 +36,7 @@ from accelcore.apps.progress import Progress
 from accelcore.errors import AccelcoreError
 from accelcore.files import check_outputs
 from accelcore.input.quality import check_session
-from accelcore.input.readers.opener import is_flight_log
+from accelcore.input.readers.opener import input_problem, is_session_input
 from accelcore.input.session import Session
 from accelcore.outputs import exports
 from accelcore.outputs.report import fleet_report, is_bulk_output, session_report
@@ -196,7 +196,7 @@ def cmd_report(args: argparse.Namespace, out: TextIO) -> int:
     matplotlib.use("Agg")  # files only, never a window
     src = Path(args.path)
     page_file = Path(args.output or src) / "index.html"
-    session_input = (src / "session.toml").is_file() or is_flight_log(src)
+    session_input = is_session_input(src)
     if session_input and args.output is None:
         raise UsageError("a session report needs -o DIR")
     if session_input:
@@ -215,12 +215,14 @@ def cmd_report(args: argparse.Namespace, out: TextIO) -> int:
                 session = open_session(src, cache=not args.no_cache, instance=args.instance)
                 bar.step("calibrating, diagnosing, plotting")
                 page = session_report(session, args.output)
+        elif src.is_file():
+            raise UsageError(input_problem(src) or f"{src}: not a session folder")
         elif not src.is_dir():
             raise CliDataError(f"{src}: no such folder")
         else:
             raise CliDataError(
-                f"{src}: neither a session folder (session.toml), a flight log (.ulg, .bin) "
-                "nor a bulk output (fleet.csv)"
+                f"{src}: neither a session folder (session.toml), a log (.csv, .parquet, "
+                ".tdms, .ulg, .bin ...) nor a bulk output (fleet.csv)"
             )
     except ValueError as exc:
         if isinstance(exc, AccelcoreError):

@@ -1,10 +1,12 @@
 """What every command does with its inputs before reading them: resolve, guard, open.
 
-A command that takes a session takes a session folder or a flight log (PX4
-``.ulg``, ArduPilot ``.bin``; :mod:`accelcore.input.readers.opener` owns which is
-which and how each is opened). Before anything is read, :func:`guard` refuses an
-output that would overwrite an input, and :func:`need` / :func:`open_session`
-turn a missing optional dependency into one usage line naming the extra.
+A command that takes a session takes a session folder, a single log (``.csv``,
+``.parquet``, ``.tdms`` ...) or a flight log (PX4 ``.ulg``, ArduPilot ``.bin``;
+:mod:`accelcore.input.readers.opener` owns which is which and how each is
+opened). Before anything is read, :func:`guard` refuses an output that would
+overwrite an input, and :func:`need` / :func:`open_session` turn a missing
+optional dependency, or a log that does not say what reading it needs, into one
+usage line saying what to do.
 
 Part of the applications room.
 """
@@ -19,7 +21,13 @@ from typing import Any
 
 from accelcore.errors import AccelcoreIOError, OutputConflictError
 from accelcore.files import check_outputs
-from accelcore.input.readers.opener import input_files, is_flight_log, missing_extra, open_input
+from accelcore.input.readers.opener import (
+    input_files,
+    input_problem,
+    is_flight_log,
+    is_single_log,
+    open_input,
+)
 from accelcore.input.session import Session
 
 __all__ = [
@@ -70,28 +78,30 @@ def session_inputs(path: str | Path) -> tuple[Path, ...]:
 
 
 def open_session(path: str | Path, *, cache: bool, instance: int = 0, **options: Any) -> Session:
-    """Open a session folder, or IMU ``instance`` of a PX4 ULog / ArduPilot DataFlash log.
+    """Open a session folder, a single log, or IMU ``instance`` of a PX4 / ArduPilot log.
 
-    ``options`` go to the flight log's reader (``decimation_factor``, ...).
+    ``options`` go to the reader (``decimation_factor``, ...).
 
     Raises
     ------
     UsageError
-        ``--instance`` given for a session folder, or the flight log's reader is
-        not installed (the message names the extra).
+        ``--instance`` given for anything but a flight log; the reader is not
+        installed (the message names the extra); a file that is no session; a
+        single log that does not state its settings, with no ``session.toml``
+        naming it (the message says what to do:
+        :func:`~accelcore.input.readers.opener.input_problem`).
     accelcore.ParameterError
         The log has no such instance (the message names the file and the
         instances it holds).
     """
+    if not is_flight_log(path) and instance != 0:
+        what = "a single log" if is_single_log(path) else "a session folder"
+        raise UsageError(f"--instance applies to flight logs (.ulg, .bin); {path} is {what}")
+    problem = input_problem(path)
+    if problem is not None:
+        raise UsageError(problem)
     if not is_flight_log(path):
-        if instance != 0:
-            raise UsageError(
-                f"--instance applies to flight logs (.ulg, .bin); {path} is a session folder"
-            )
-        return open_input(path, cache=cache)
-    missing = missing_extra(path)
-    if missing is not None:
-        raise UsageError(missing)
+        return open_input(path, cache=cache, **options)
     return open_input(path, instance=instance, **options)
 
 

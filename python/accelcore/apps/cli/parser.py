@@ -24,7 +24,8 @@ _EPILOGS = {
     "calibrate": """example:
   accelcore calibrate examples/adxl335-demo/generated --method joint --t-ref 25 \\
       --window 0 60 --json cal-result.json --save adxl335.cal.json
-  accelcore calibrate thermal_sweep.ulg --instance 1 --save px4-imu1.cal.json""",
+  accelcore calibrate thermal_sweep.ulg --instance 1 --save px4-imu1.cal.json
+  accelcore calibrate chamber/sweep.parquet   (its session.toml names it: log = ...)""",
     "compensate": """example:
   accelcore compensate adxl335.cal.json flight_log.csv -o flight_log_g.csv \\
       --column temperature=die_temp --column time=t_ms --time-unit ms
@@ -71,13 +72,18 @@ _EPILOGS = {
     "init": """examples:
   accelcore init /data/chamber/part17
   accelcore init /data/chamber/part17 --units V --rate-hz 20 --sensor ADXL335 --force
+  accelcore init /data/chamber/sweep.csv        (then: accelcore calibrate /data/chamber)
 
   Writes FOLDER/session.toml for the logs (.csv, .tsv, .txt, .dat) of FOLDER,
   one run each: delimiter, columns and time unit from the header, each run's
   orientation from its file name (x_pos, OX+, xp, zminus, +z ...) or else from
   its mean output (gravity), units from the size of the output and the rate
-  from the median time step. Prints every guess; asks nothing. An existing
-  session.toml is kept (exit status 2) unless --force.""",
+  from the median time step. Given one log (.csv, .txt, .tsv, .dat, .parquet,
+  .tdms), writes the session.toml beside it with log = that file: the
+  orientation column found among its columns (labels OX+ ... OZ-), a TDMS
+  file's groups by their orientation property, name or mean output. Prints
+  every guess; asks nothing. An existing session.toml is kept (exit status 2)
+  unless --force; an input is never written over.""",
     "simulate": """example:
   accelcore simulate /tmp/adxl335-session --sensor ADXL335 --seed 7 --duration-h 2""",
     "bench": """example:
@@ -91,6 +97,13 @@ _EPILOGS = {
   accelcore demo                      (the bundled example, generated on first use)
   accelcore demo --dir /tmp/demo      (somewhere else)""",
 }
+
+
+#: What a SESSION argument may be.
+_SESSION_HELP = (
+    "session folder (holding session.toml), a single log it names or that states its "
+    "settings (.csv, .parquet, .tdms ...), or a PX4 .ulg / ArduPilot .bin log"
+)
 
 
 def _window(text: str) -> float:
@@ -172,7 +185,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "session",
         metavar="SESSION",
-        help="session folder (holding session.toml), or a PX4 .ulg / ArduPilot .bin log",
+        help=_SESSION_HELP,
     )
     p.add_argument("--method", choices=("joint", "paper"), default="joint", help="default: joint")
     p.add_argument("--t-ref", type=_window, default=25.0, metavar="C", help="default: 25 °C")
@@ -243,7 +256,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "session",
         metavar="SESSION",
-        help="session folder (holding session.toml), or a PX4 .ulg / ArduPilot .bin log",
+        help=_SESSION_HELP,
     )
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-': stdout)")
     p.add_argument(
@@ -275,7 +288,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "path",
         metavar="SESSION|OUT",
-        help="session folder, flight log (.ulg, .bin), or output folder of accelcore bulk",
+        help="session folder, log (.csv, .parquet, .tdms ...; .ulg, .bin), or output folder of "
+        "accelcore bulk",
     )
     p.add_argument(
         "-o",
@@ -287,8 +301,13 @@ def build_parser() -> argparse.ArgumentParser:
     _add_no_cache(p)
     p.set_defaults(func=commands.cmd_report, data_path="path")
 
-    p = add("init", "write a session.toml for a folder of logs, guessing its layout")
-    p.add_argument("folder", metavar="FOLDER", help="folder of logs, one run per file")
+    p = add("init", "write a session.toml for a folder of logs or for one log, guessing its layout")
+    p.add_argument(
+        "folder",
+        metavar="FOLDER|LOG",
+        help="folder of logs, one run per file; or one log (.csv, .parquet, .tdms ...) with an "
+        "orientation column or groups, its session.toml written beside it (log = ...)",
+    )
     p.add_argument("--force", action="store_true", help="write over an existing session.toml")
     p.add_argument("--units", choices=UNITS, help="output units (default: guessed)")
     p.add_argument("--rate-hz", type=_positive, metavar="HZ", help="default: median time step")

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore.constants import DEFAULT_COLUMNS, ORIENTATIONS, TIME_UNITS
+from accelcore.constants import DEFAULT_COLUMNS, ORIENTATIONS, SAMPLE_TIME_UNIT, TIME_UNITS
 from accelcore.errors import AccelcoreIOError, ParameterError, ParseError
 from accelcore.input.format import check_distinct_columns
 
@@ -70,7 +70,13 @@ def _column_names(columns: Mapping[str, str] | None) -> dict[str, str]:
             f"columns: unknown role(s) {', '.join(sorted(unknown))}; "
             f"expected some of {', '.join(_ROLES)}"
         )
-    check_distinct_columns(names, "columns")
+    blank = [r for r in _ROLES if r != "temperature" and not str(names[r]).strip()]
+    if blank:
+        raise ParameterError(
+            f'columns: {", ".join(blank)} must name a column (only temperature may be "": '
+            "no temperature logged)"
+        )
+    check_distinct_columns({r: n for r, n in names.items() if n}, "columns")
     return names
 
 
@@ -86,9 +92,15 @@ def _check_settle(settle_s: float) -> float:
     return float(settle_s)
 
 
-def _time_scale(time_unit: str) -> float:
+def _time_scale(time_unit: str, rate_hz: float | None) -> float:
+    """Seconds per unit of the time column; a sample index (``"sample"``) is ``1 / rate_hz``."""
+    if time_unit == SAMPLE_TIME_UNIT:
+        if rate_hz is None:
+            raise ParameterError("time_unit='sample' (a sample index) needs rate_hz")
+        return 1.0 / rate_hz
     if time_unit not in TIME_UNITS:
-        raise ParameterError(f"time_unit must be one of {', '.join(TIME_UNITS)}, got {time_unit!r}")
+        known = ", ".join((*TIME_UNITS, SAMPLE_TIME_UNIT))
+        raise ParameterError(f"time_unit must be one of {known}, got {time_unit!r}")
     return TIME_UNITS[time_unit]
 
 

@@ -83,7 +83,7 @@ def read_orientation_log(
     path : str or path-like
         The log: one header row, then one row per sample.
     units : str
-        ``V``, ``LSB``, ``g`` or ``m/s2``.
+        ``V``, ``LSB``, ``g``, ``mg`` or ``m/s2``.
     rate_hz : float
         Nominal sample rate of the log.
     orientation_column : str, default "orientation"
@@ -92,10 +92,13 @@ def read_orientation_log(
         Names of the time, temperature, x, y, z columns (keys ``time``,
         ``temperature``, ``x``, ``y``, ``z``); defaults ``time_s, temp_c, x, y, z``.
         Every other column must be numeric and is kept as an extra observable.
+        ``temperature=""``: no temperature was logged (the runs' temperatures are
+        NaN and the session calibrates at one temperature).
     delimiter : str, default ","
         A comma (default), a tab or a semicolon.
     time_unit : str, default "s"
-        ``s``, ``ms``, ``us`` or ``ns``.
+        ``s``, ``ms``, ``us``, ``ns``, or ``sample`` (a sample index: seconds
+        are ``index / rate_hz``).
     sensor, serial : str, optional
         Datasheet name and serial, carried into the session.
     decimation_factor : int, optional
@@ -132,7 +135,7 @@ def read_orientation_log(
     rate = _check_rate(rate_hz)
     factor = default_decimation_factor(rate) if decimation_factor is None else decimation_factor
     settle = _check_settle(settle_s)
-    scale = _time_scale(time_unit)
+    scale = _time_scale(time_unit, rate)
     if delimiter not in DELIMITERS:
         raise ParameterError(f"delimiter must be ',', '\\t' or ';', got {delimiter!r}")
     names = _column_names(columns)
@@ -166,7 +169,7 @@ def read_orientation_log(
         raise
     with stack, reader:
         check_unique_names(file, first_line_fields(file, DELIMITERS[delimiter]), header_line=True)
-        wanted = [names[r] for r in _ROLES] + [orientation_column]
+        wanted = [names[r] for r in _ROLES if names[r]] + [orientation_column]
         if any(w not in header for w in wanted):
             raise _missing_columns(file, header, wanted, header_line=True)
         required = [names[r] for r in ("x", "y", "z")]
@@ -179,7 +182,9 @@ def read_orientation_log(
             n_channels=3 + len(extras),
             row_word="line",
             fragment="L",
+            temperature=bool(names["temperature"]),
         )
+        logged = [names["temperature"]] if layout.temperature else []
 
         with open(file, "rb") as fh:
             size = fh.seek(0, os.SEEK_END)
@@ -211,11 +216,12 @@ def read_orientation_log(
 
                     values = {
                         c: _numeric(frame, c, pos, file, index[c])
-                        for c in [names["time"], names["temperature"], *required, *extras]
+                        for c in [names["time"], *logged, *required, *extras]
                     }
+                    time_s = values[names["time"]] * scale
                     chunk = _Chunk(
-                        time_s=values[names["time"]] * scale,
-                        temperature_c=values[names["temperature"]],
+                        time_s=time_s,
+                        temperature_c=values[logged[0]] if logged else time_s,
                         channels=np.column_stack([values[c] for c in required + extras]),
                         positions=pos,
                         labels=_label_ids(

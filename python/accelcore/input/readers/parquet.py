@@ -71,7 +71,7 @@ def read_parquet(
     path : str or path-like
         The Parquet file.
     units : str
-        ``V``, ``LSB``, ``g`` or ``m/s2``.
+        ``V``, ``LSB``, ``g``, ``mg`` or ``m/s2``.
     rate_hz : float
         Nominal sample rate.
     orientation : str, optional
@@ -81,11 +81,13 @@ def read_parquet(
         :func:`read_orientation_log`. Give exactly one of the two.
     columns : mapping, optional
         Names of the time, temperature, x, y, z columns, as in
-        :func:`read_orientation_log`. Every other integer or floating-point
-        column is kept as an extra observable; other types are ignored.
+        :func:`read_orientation_log` (``temperature=""``: none logged). Every
+        other integer or floating-point column is kept as an extra observable;
+        other types are ignored.
     time_unit : str, default "s"
-        Unit of a numeric time column; a timestamp column counts seconds from
-        the file's first timestamp, whatever ``time_unit`` says.
+        Unit of a numeric time column (``s``, ``ms``, ``us``, ``ns`` or
+        ``sample``); a timestamp column counts seconds from the file's first
+        timestamp, whatever ``time_unit`` says.
     sensor, serial, decimation_factor, min_count, settle_s
         As in :func:`read_orientation_log` (``settle_s`` applies to every run).
 
@@ -115,7 +117,7 @@ def read_parquet(
     rate = _check_rate(rate_hz)
     factor = default_decimation_factor(rate) if decimation_factor is None else decimation_factor
     settle = _check_settle(settle_s)
-    scale = _time_scale(time_unit)
+    scale = _time_scale(time_unit, rate)
     label = _one_orientation(orientation, orientation_column, "read_parquet")
     names = _column_names(columns)
     try:
@@ -125,7 +127,8 @@ def read_parquet(
     schema = pf.schema_arrow
     header = list(schema.names)
     check_unique_names(file, header, header_line=False)
-    wanted = [names[r] for r in _ROLES] + ([orientation_column] if orientation_column else [])
+    wanted = [names[r] for r in _ROLES if names[r]]
+    wanted += [orientation_column] if orientation_column else []
     if any(w not in header for w in wanted):
         raise _missing_columns(file, header, wanted, header_line=False)
 
@@ -136,7 +139,8 @@ def read_parquet(
     index = {h: i + 1 for i, h in enumerate(header)}
     required = [names[r] for r in ("x", "y", "z")]
     time_type = schema.field(names["time"]).type
-    for name in [names["temperature"], *required]:
+    logged = [names["temperature"]] if names["temperature"] else []
+    for name in [*logged, *required]:
         if not numeric_type(schema.field(name).type):
             raise _parse_error(
                 file,
@@ -160,6 +164,7 @@ def read_parquet(
         n_channels=3 + len(extras),
         row_word="row",
         fragment="rows=",
+        temperature=bool(logged),
     )
 
     def as_float(array: Any) -> _FloatArray:
@@ -194,9 +199,10 @@ def read_parquet(
                     column_name=orientation_column,
                     row_word="row",
                 )
+            time_s = time_of(batch.column(names["time"]))
             chunk = _Chunk(
-                time_s=time_of(batch.column(names["time"])),
-                temperature_c=as_float(batch.column(names["temperature"])),
+                time_s=time_s,
+                temperature_c=as_float(batch.column(logged[0])) if logged else time_s,
                 channels=np.column_stack([as_float(batch.column(c)) for c in required + extras]),
                 positions=pos,
                 labels=labels,

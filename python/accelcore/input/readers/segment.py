@@ -35,7 +35,10 @@ from accelcore.input.session import Run, RunStats, _make_run
 class _RunBuilder:
     """Decimates one run pushed in chunks, with the statistics the Rust reader keeps.
 
-    ``where`` turns a row's position into the text of an error location.
+    ``where`` turns a row's position into the text of an error location. Without
+    ``temperature`` (none logged), the caller pushes the time in its place (always
+    finite, so no row is skipped for it) and the run gets NaN temperatures, as
+    :func:`accelcore.load_session` does.
     """
 
     def __init__(
@@ -52,8 +55,10 @@ class _RunBuilder:
         min_count: int,
         settle_s: float,
         row_word: str,
+        temperature: bool = True,
     ) -> None:
         self.label = label
+        self.temperature = temperature
         self.source = source
         self.path = path
         self.time_column = time_column
@@ -138,7 +143,13 @@ class _RunBuilder:
             return None
         stats = RunStats.from_raw(self.tally.finish(), n_truncated_rows=self.n_truncated)
         return _make_run(
-            self.label, gravity_of(self.label), blocks, self.extra_names, self.source, stats
+            self.label,
+            gravity_of(self.label),
+            blocks,
+            self.extra_names,
+            self.source,
+            stats,
+            temperature=self.temperature,
         )
 
 
@@ -168,6 +179,7 @@ class _Layout:
     n_channels: int
     row_word: str
     fragment: str  # how a run's span is written into Run.source ("L" or "rows=")
+    temperature: bool = True  # False: no temperature logged (time pushed in its place)
 
 
 def _label_ids(
@@ -248,6 +260,7 @@ def _segment(
             min_count=min_count,
             settle_s=settle_s,
             row_word=layout.row_word,
+            temperature=layout.temperature,
         )
 
     def close(builder: _RunBuilder | None) -> None:

@@ -88,7 +88,7 @@ def read_tdms(
     path : str or path-like
         The ``.tdms`` file (its ``.tdms_index``, if any, is used by npTDMS).
     units : str
-        ``V``, ``LSB``, ``g`` or ``m/s2``.
+        ``V``, ``LSB``, ``g``, ``mg`` or ``m/s2``.
     rate_hz : float, optional
         Nominal sample rate; default ``1 / wf_increment`` of the x channel, else
         1 / the median interval of the time channel's first 1000 intervals, both
@@ -97,13 +97,15 @@ def read_tdms(
         The group(s) to read, in this order; default every group holding the
         x, y, z and temperature channels, in file order.
     channel_map : mapping, optional
-        Channel names of ``time``, ``temperature``, ``x``, ``y``, ``z``.
+        Channel names of ``time``, ``temperature``, ``x``, ``y``, ``z``
+        (``temperature=""``: none logged).
     orientation : str or mapping of group name to str, optional
         Orientation of every group (a one-run file), or of each group; default
         each group's ``orientation`` property.
     time_unit : str, default "s"
-        Unit of a numeric time channel (a timestamp channel counts seconds from
-        the group's first sample).
+        Unit of a numeric time channel (``sample``, a sample index, needs
+        ``rate_hz``); a timestamp channel counts seconds from the group's first
+        sample.
     sensor, serial : str, optional
         Default: the file's (root) ``sensor`` and ``serial`` properties, if any.
     decimation_factor, min_count, settle_s
@@ -131,9 +133,9 @@ def read_tdms(
     units = check_units(units, "units")
     rate_arg = None if rate_hz is None else _check_rate(rate_hz)
     settle = _check_settle(settle_s)
-    scale = _time_scale(time_unit)
+    scale = _time_scale(time_unit, rate_arg)
     names = _column_names(channel_map)
-    needed = [names[r] for r in ("temperature", "x", "y", "z")]
+    needed = [names[r] for r in ("temperature", "x", "y", "z") if names[r]]
     runs: list[Run] = []
     try:
         tdms = TdmsFile.open(file)
@@ -153,7 +155,8 @@ def read_tdms(
                 )
                 raise SessionFormatError(
                     f"{file}: no group holds the channels {', '.join(map(repr, needed))} "
-                    f"(groups: {listing or 'none'}); pass channel_map= or group="
+                    f"(groups: {listing or 'none'}); pass channel_map= or group= "
+                    "([columns] or group = in session.toml)"
                 )
         else:
             wanted_groups = [group] if isinstance(group, str) else list(group)
@@ -227,14 +230,15 @@ def _tdms_group(
     where = f"{file}#{g.name}"
     check_unique_names(where, [c.name for c in g.channels()], header_line=False)
     channels = {c.name: c for c in g.channels()}
-    needed = [names[r] for r in ("temperature", "x", "y", "z")]
+    needed = [names[r] for r in ("temperature", "x", "y", "z") if names[r]]
     if any(c not in channels for c in needed):
         raise _missing_columns(where, list(channels), needed, header_line=False)
     if orientation is None:
         label = _tdms_prop(g, "orientation")
         if label is None:
             raise SessionFormatError(
-                f"{where}: the group has no 'orientation' property; pass orientation="
+                f"{where}: the group has no 'orientation' property; pass orientation= "
+                "(orientation = in session.toml)"
             )
     elif isinstance(orientation, str):
         label = orientation
@@ -300,6 +304,7 @@ def _tdms_group(
         min_count=min_count,
         settle_s=settle_s,
         row_word="sample",
+        temperature=bool(names["temperature"]),
     )
     order = [names["x"], names["y"], names["z"], *extras]
     for a in range(0, n, common.CHUNK_ROWS):
@@ -309,7 +314,11 @@ def _tdms_group(
         else:
             assert wf_rate is not None
             t = start + np.arange(a, a + m, dtype=np.float64) / wf_rate
-        temp = np.asarray(channels[names["temperature"]].read_data(a, m), dtype=np.float64)
+        temp = (
+            np.asarray(channels[names["temperature"]].read_data(a, m), dtype=np.float64)
+            if names["temperature"]
+            else t
+        )
         data = np.column_stack(
             [np.asarray(channels[c].read_data(a, m), dtype=np.float64) for c in order]
         )

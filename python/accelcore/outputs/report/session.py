@@ -25,7 +25,8 @@ from accelcore.diagnosis.tables import value_se_text
 from accelcore.errors import AccelcoreError
 from accelcore.fitting.calibrate import calibrate
 from accelcore.input.format import LAB_KEYS
-from accelcore.input.session import Session, load_session
+from accelcore.input.session import Session
+from accelcore.input.single_log import load_session
 from accelcore.outputs import plots
 from accelcore.outputs.diagnosis_plot import plot_residuals_per_axis
 from accelcore.outputs.plots import not_identified_terms
