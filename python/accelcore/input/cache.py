@@ -63,7 +63,7 @@ from typing import Any, Final, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore import _accelcore
+import accelcore._accelcore as _accelcore
 from accelcore._accelcore import __version__
 from accelcore.errors import AccelcoreWarning
 from accelcore.files import atomic_write
