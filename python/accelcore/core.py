@@ -12,6 +12,7 @@ result of one pass over ``a``'s input followed by ``b``'s.
   error of any fold assignment by merging factors (the diagnosis' engine);
   :class:`FoldedLeastSquares`, its folds fixed, cross-validates any subset of columns.
 - :func:`running_median`: a centred running median (the data-quality checks' smoother).
+- :class:`TimeConstantSearch`: a lag's or warm-up's time constant by held-out error.
 
 All computation runs in Rust with the GIL released. ``accelcore.reference``
 holds an independent NumPy implementation of the same specification.
@@ -29,6 +30,7 @@ from accelcore._accelcore import (
     LeastSquares,
     LstsqSolution,
     TemperatureBinner,
+    TimeConstantSearch,
     running_median,
 )
 
@@ -42,5 +44,6 @@ __all__ = [
     "LeastSquares",
     "LstsqSolution",
     "TemperatureBinner",
+    "TimeConstantSearch",
     "running_median",
 ]

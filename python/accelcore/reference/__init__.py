@@ -23,6 +23,8 @@ One module per kernel, named as its Rust twin in ``rust/accelcore-core/src``:
 - :mod:`~accelcore.reference.robust`: :func:`running_median`;
 - :mod:`~accelcore.reference.heldout`: :func:`cross_validate`, the held-out fits of
   ``BlockedLeastSquares`` by refitting the rows of every other fold;
+- :mod:`~accelcore.reference.search`: :class:`TimeConstantSearch`, a time constant by
+  the held-out error of trials built and refitted plainly;
 - :mod:`~accelcore.reference.errors`: the exceptions.
 
 The reference raises its own exception classes, which carry the same names as
@@ -48,6 +50,7 @@ from accelcore.reference.errors import (
 from accelcore.reference.heldout import HeldOut, cross_validate
 from accelcore.reference.regression import RANK_RTOL, LeastSquares, LstsqSolution
 from accelcore.reference.robust import running_median
+from accelcore.reference.search import TimeConstantSearch
 
 __all__ = [
     "N_BINS_SLACK",
@@ -66,6 +69,7 @@ __all__ = [
     "ShapeError",
     "SingularSystemError",
     "TemperatureBinner",
+    "TimeConstantSearch",
     "TimeOrderError",
     "cross_validate",
     "running_median",

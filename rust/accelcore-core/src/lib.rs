@@ -16,6 +16,7 @@
 //! - [`RunTally`]: what a run's raw rows looked like (rows, non-finite rows, time
 //!   span, gaps, channel ranges), shared by every reader.
 //! - [`running_median`]: a centred running median (the data-quality checks' smoother).
+//! - [`TimeConstantSearch`]: a lag's or warm-up's time constant by held-out error.
 
 pub mod binning;
 pub mod compensate;
@@ -26,6 +27,7 @@ pub mod heldout;
 pub mod reader;
 pub mod regression;
 pub mod robust;
+pub mod search;
 pub mod tally;
 
 pub use binning::{BinnedStats, BinnerConfig, TemperatureBinner};
@@ -40,4 +42,8 @@ pub use reader::{
 };
 pub use regression::{LeastSquares, LstsqSolution};
 pub use robust::running_median;
+pub use search::{
+    SampleSeries, SearchResult, SearchSettings, TauColumn, TimeConstantSearch, TrialModel,
+    WindowLayout,
+};
 pub use tally::{ChannelRange, RawStats, RunTally};

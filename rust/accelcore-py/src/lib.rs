@@ -11,6 +11,7 @@ mod heldout;
 mod reader;
 mod regression;
 mod robust;
+mod search;
 
 use pyo3::prelude::*;
 
@@ -34,6 +35,8 @@ mod _accelcore {
     use super::regression::{PyLeastSquares, PyLstsqSolution};
     #[pymodule_export]
     use super::robust::py_running_median;
+    #[pymodule_export]
+    use super::search::PyTimeConstantSearch;
 
     use pyo3::prelude::*;
 
