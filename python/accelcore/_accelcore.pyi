@@ -450,10 +450,11 @@ class TimeConstantSearch:
     ``sample_weight``; a window of zero weight gets the weighted sum) in NumPy's
     summation order and times a per-window multiplier (a gain column's gravity). The
     trial's score is the held-out weighted squared error of every block on every
-    ``stride``-th window (:class:`BlockedLeastSquares` with the windows as rows, a
-    column the training data cannot identify held at 0: the later of two dependent
-    columns), summed as ``np.sum`` does. The window means of each ``tau`` are kept
-    (64 values per kind), so models that try the same values build each column once.
+    ``stride``-th window, summed (:class:`BlockedLeastSquares` with the windows as
+    rows, a column the training data cannot identify held at 0: the later of two
+    dependent columns; the blocks of one fold are fitted as one block, whose held-out
+    error is the sum of theirs). The window means of each ``tau`` are kept (64 values
+    per kind), so models that try the same values build each column once.
 
     Parameters
     ----------

@@ -2,8 +2,9 @@
 
 :func:`variants` lists the variants of one family on one axis (orders, sources,
 extra columns), :func:`search_tau` finds a lag's time constant by held-out error (grid,
-then golden section), :func:`tau_se` its standard error, and :func:`confounding` the
-pairs of effects this data cannot tell apart.
+then parabolic steps; :func:`tau_trials` runs the trials in the core when the model's
+columns that follow tau are lags or decays), :func:`tau_se` its standard error, and
+:func:`confounding` the pairs of effects this data cannot tell apart.
 """
 
 from __future__ import annotations
@@ -146,7 +147,7 @@ def search_1d(
 
 
 #: Whether :func:`tau_trials` runs the search in the core when the model allows it
-#: (same trials; False forces the Python loop, for tests and benches).
+#: (the same trials to rounding; False forces the Python loop, for tests and benches).
 CORE_SEARCH = True
 
 
@@ -164,7 +165,9 @@ def tau_trials(
     them in the core (:class:`accelcore.core.TimeConstantSearch`) when the model's
     columns that depend on tau are lagged temperature powers or decays (see
     :func:`tau_columns`), else in Python, each through :meth:`Engine.cv_coarse`.
-    Both give the same trials; the core's skips the Python of each trial.
+    Both try the same values and score them alike to rounding (the core fits the
+    blocks of one fold as one block: the same sum of held-out errors); the core's
+    skips the Python of each trial and builds each tau's columns once for every axis.
     """
     if CORE_SEARCH if core is None else core:
         recipe = tau_columns(eng, axis, make, range_s)

@@ -25,14 +25,18 @@
 //! 4. pushes the design, its columns in the model's order, into a new
 //!    [`BlockedLeastSquares`] and cross-validates it: a column the training data cannot
 //!    identify is held at zero, the later of two dependent ones;
-//! 5. sums the held-out error of the blocks, in NumPy's pairwise order.
+//! 5. sums the held-out error of the folds.
 //!
-//! So a trial gives the same floats as the diagnosis engine's Python trial (its
-//! `cv_coarse`), up to the exponential of a decay (NumPy's vectorised `exp` and the
-//! C library's may differ in the last bit). The window means of steps 1–2 depend on
-//! `tau` only, not on the model: the search keeps them (up to [`CACHED_TAUS`] values
-//! of `tau` per kind), so the models of every axis, which try the same grid, build
-//! each column once.
+//! The engine's trial (its `cv_coarse`) scores each block and sums the blocks; the
+//! score is that sum only, so here the blocks of one fold are pushed as one block
+//! (the same algebra: a fold's held-out error is the sum of its blocks'), which
+//! spares most of the factors and their merges. So a trial gives the engine's score
+//! to rounding (a few eps relative on well-posed designs: the rows are rotated in the
+//! same order, into fewer factors), with its columns the same floats, up to the
+//! exponential of a decay (NumPy's vectorised `exp` and the C library's may differ in
+//! the last bit). The window means of steps 1–2 depend on `tau` only, not on the
+//! model: the search keeps them (up to [`CACHED_TAUS`] values of `tau` per kind), so
+//! the models of every axis, which try the same grid, build each column once.
 //!
 //! [`TimeConstantSearch::search`] runs the search of the Python diagnosis
 //! (`accelcore.diagnosis.search.search_1d`), step for step: `tau` rounded to three
@@ -174,8 +178,10 @@ pub struct TimeConstantSearch {
     /// The weight of each trial window, zero weights replaced by 1 (a mean's divisor).
     divisor: Vec<f64>,
     weight: Vec<f64>,
-    block: Vec<u32>,
-    block_fold: Vec<u32>,
+    /// The fold of each trial window: a trial's blocks are the folds.
+    fold: Vec<u32>,
+    /// Each fold is its own fold (`0..n_folds`).
+    folds: Vec<u32>,
     /// Window means of `(lag - t_ref)^k` (index k - 1) per `tau` (bits), trial rows.
     lag_cache: HashMap<u64, Vec<Vec<f64>>>,
     /// Window means of `exp(-t / tau)` per `tau` (bits), trial rows.
@@ -205,6 +211,7 @@ impl TimeConstantSearch {
             return Err(invalid("stride", "must be >= 1".to_string()));
         }
         let n_blocks = windows.block_fold.len();
+        let n_folds = windows.block_fold.iter().map(|&f| f + 1).max().unwrap_or(0);
         if let Some(b) = windows.block.iter().find(|&&b| b as usize >= n_blocks) {
             return Err(invalid(
                 "window block",
@@ -277,8 +284,11 @@ impl TimeConstantSearch {
                 .map(|&w| if w > 0.0 { w } else { 1.0 })
                 .collect(),
             weight,
-            block: rows.iter().map(|&i| windows.block[i]).collect(),
-            block_fold: windows.block_fold.to_vec(),
+            fold: rows
+                .iter()
+                .map(|&i| windows.block_fold[windows.block[i] as usize])
+                .collect(),
+            folds: (0..n_folds).collect(),
             rows,
             lag_cache: HashMap::new(),
             decay_cache: HashMap::new(),
@@ -517,14 +527,14 @@ impl TimeConstantSearch {
     /// Score a prepared model at `tau_s` (not rounded).
     fn trial(&mut self, model: &TrialModel<'_>, prepared: &Prepared, tau_s: f64) -> Result<f64> {
         let design = self.assemble(model, prepared, tau_s)?;
-        let mut lsq = BlockedLeastSquares::new(model.columns.len(), self.block_fold.len())?;
+        let mut lsq = BlockedLeastSquares::new(model.columns.len(), self.folds.len())?;
         lsq.push(
             design.view(),
             &prepared.response,
             Some(&self.weight),
-            &self.block,
+            &self.fold,
         )?;
-        let fit = lsq.cross_validate(&self.block_fold)?;
+        let fit = lsq.cross_validate(&self.folds)?;
         Ok(pairwise_sum(&fit.heldout_rss_per_block))
     }
 
@@ -933,7 +943,10 @@ mod tests {
         lsq.push(x.view(), &yr, Some(&wr), &br).unwrap();
         let fit = lsq.cross_validate(&d.block_fold).unwrap();
         let at_45 = s.score(&m, 45.0).unwrap();
-        assert_eq!(at_45, pairwise_sum(&fit.heldout_rss_per_block));
+        // The folds' errors, each one factor, against the blocks': the same rows rotated
+        // into fewer factors, a well-conditioned design (1, dT, a lag): a few eps.
+        let blocks = pairwise_sum(&fit.heldout_rss_per_block);
+        assert!(close(at_45, blocks, 1e-13), "{at_45} {blocks}");
         assert!(s.score(&m, 60.0).unwrap() < at_45);
         // Kept window means give the floats of new ones: other models and taus between.
         let other = [lag(2), TauColumn::Fixed(0), lag(1)];
