@@ -4,6 +4,7 @@ Users import these classes from :mod:`accelcore.core`. Docstrings follow the
 NumPy convention and state units, NaN policy and empty-input behaviour.
 """
 
+from collections.abc import Sequence
 from typing import final
 
 import numpy as np
@@ -437,6 +438,138 @@ class BlockedLeastSquares:
     def n_blocks(self) -> int: ...
     @property
     def n_responses(self) -> int: ...
+
+@final
+class TimeConstantSearch:
+    """Searches of a time constant over one data set, by the held-out error of trials.
+
+    A trial is a linear model at one value of ``tau``: columns that do not depend on
+    it (*fixed*) and columns built from it, ``(lag(T, tau) - t_ref_c)^k`` (the
+    temperature through :func:`first_order_lag`, one pass per record) or
+    ``exp(-elapsed_s / tau)``, each averaged over the windows (weighted by
+    ``sample_weight``; a window of zero weight gets the weighted sum) in NumPy's
+    summation order and times a per-window multiplier (a gain column's gravity). The
+    trial's score is the held-out weighted squared error of every block on every
+    ``stride``-th window, summed (:class:`BlockedLeastSquares` with the windows as
+    rows, a column the training data cannot identify held at 0: the later of two
+    dependent columns; the blocks of one fold are fitted as one block, whose held-out
+    error is the sum of theirs). The window means of each ``tau`` are kept (64 values
+    per kind), so models that try the same values build each column once.
+
+    Parameters
+    ----------
+    records : sequence of (array_like, array_like)
+        Time (s) and temperature (°C) of every record, whole.
+    gather : array_like of int, shape (n,)
+        Each sample's index in the records laid end to end.
+    elapsed_s : array_like, shape (n,)
+        Each sample's time since its run's start, s.
+    sample_weight : array_like, shape (n,)
+        Each sample's weight.
+    window_start : array_like of int, shape (n_windows,)
+        First sample of each window (contiguous, non-empty, from sample 0).
+    window_weight : array_like, shape (n_windows,)
+        Each window's weight (the sum of its samples' weights).
+    window_block : array_like of int, shape (n_windows,)
+        Each window's block.
+    block_fold : array_like of int, shape (n_blocks,)
+        Each block's fold.
+    t_ref_c : float
+        Reference temperature, °C.
+    stride : int
+        Trials fit windows ``0, stride, 2 stride, ...`` (>= 1).
+
+    Raises
+    ------
+    accelcore.ParameterError
+        A zero stride, a block or gather index out of range, windows that are not
+        contiguous stretches.
+    accelcore.ShapeError
+        Lengths that disagree.
+    """
+
+    def __new__(
+        cls,
+        records: Sequence[tuple[ArrayLike, ArrayLike]],
+        gather: ArrayLike,
+        elapsed_s: ArrayLike,
+        sample_weight: ArrayLike,
+        window_start: ArrayLike,
+        window_weight: ArrayLike,
+        window_block: ArrayLike,
+        block_fold: ArrayLike,
+        /,
+        *,
+        t_ref_c: float,
+        stride: int,
+    ) -> TimeConstantSearch: ...
+    def search(
+        self,
+        fixed: ArrayLike,
+        response: ArrayLike,
+        columns: Sequence[tuple[str, int, ArrayLike | None]],
+        /,
+        *,
+        range_s: tuple[float, float],
+        grid_points: int = 10,
+        steps: int = 8,
+        tol: float = 5e-3,
+    ) -> tuple[float, NDArray[np.float64]]:
+        """Search ``tau`` for one model; return the best and every trial.
+
+        ``tau`` is rounded to three significant digits as ``float(f"{tau:.3g}")``
+        (a value is scored once); a log grid of ``grid_points`` over ``range_s``,
+        then at most ``steps`` parabolic steps in ``log tau`` (golden section where
+        a parabola leaves the bracket) until a step moves less than ``tol`` or the
+        bracket is narrower than ``2 tol``. The steps of
+        ``accelcore.diagnosis.search.search_1d``.
+
+        Parameters
+        ----------
+        fixed : array_like, shape (n_windows, p0)
+            The model's fixed columns as window means.
+        response : array_like, shape (n_windows,)
+            The response as window means.
+        columns : sequence of (str, int, array_like or None)
+            The design's columns in order: ``("fixed", j, None)`` (column ``j`` of
+            ``fixed``), ``("lag", k, multiplier)``, ``("decay", 0, multiplier)``;
+            ``multiplier`` one value per window, or None.
+        range_s : (float, float)
+            Smallest and largest ``tau`` of the grid, s (``0 < lo <= hi``).
+
+        Returns
+        -------
+        best_tau_s : float
+            The trial of least score (the first tried among equals).
+        trials : ndarray of float64, shape (n_trials, 2)
+            ``(tau, score)`` of every distinct ``tau`` tried, in order.
+
+        Raises
+        ------
+        accelcore.ParameterError
+            A bad column, range, grid or tolerance.
+        accelcore.ShapeError
+            A fixed design, response or multiplier not one value per window.
+        accelcore.NonFiniteError
+            A non-finite value in the trial design, or in a record's time or
+            temperature for a model with a lag column (as :func:`first_order_lag`).
+        accelcore.TimeOrderError
+            A record's time going back, for a model with a lag column.
+        """
+
+    def score(
+        self,
+        fixed: ArrayLike,
+        response: ArrayLike,
+        columns: Sequence[tuple[str, int, ArrayLike | None]],
+        tau_s: float,
+        /,
+    ) -> float:
+        """Score of one model at ``tau_s`` (not rounded); arguments as :meth:`search`."""
+
+    @property
+    def n_rows(self) -> int:
+        """Windows a trial fits."""
 
 @final
 class RunData:

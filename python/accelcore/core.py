@@ -17,6 +17,7 @@ result of one pass over ``a``'s input followed by ``b``'s.
   :func:`t_sf`, :func:`f_sf` (survival functions), :func:`paired_test`,
   :func:`bonferroni`, :func:`holm` and :class:`AcceptanceRule` (its verdict an
   :class:`Acceptance`).
+- :class:`TimeConstantSearch`: a lag's or warm-up's time constant by held-out error.
 
 All computation runs in Rust with the GIL released. ``accelcore.reference``
 holds an independent NumPy implementation of the same specification.
@@ -37,6 +38,7 @@ from accelcore._accelcore import (
     LstsqSolution,
     PairedTest,
     TemperatureBinner,
+    TimeConstantSearch,
     bonferroni,
     chi2_sf,
     f_sf,
@@ -60,6 +62,7 @@ __all__ = [
     "LstsqSolution",
     "PairedTest",
     "TemperatureBinner",
+    "TimeConstantSearch",
     "bonferroni",
     "chi2_sf",
     "f_sf",

@@ -2,21 +2,25 @@
 
 :func:`variants` lists the variants of one family on one axis (orders, sources,
 extra columns), :func:`search_tau` finds a lag's time constant by held-out error (grid,
-then golden section), :func:`tau_se` its standard error, and :func:`confounding` the
-pairs of effects this data cannot tell apart.
+then parabolic steps; :func:`tau_trials` runs the trials in the core when the model's
+columns that follow tau are lags or decays), :func:`tau_se` its standard error, and
+:func:`confounding` the pairs of effects this data cannot tell apart.
 """
 
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable, Container, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
+from accelcore.core import TimeConstantSearch
 from accelcore.model import (
     AXES,
+    Basis,
     Decay,
     Elapsed,
     Extra,
@@ -35,7 +39,9 @@ __all__ = [
     "profile_se",
     "search_1d",
     "search_tau",
+    "tau_columns",
     "tau_se",
+    "tau_trials",
     "variants",
     "warm_up_range_s",
     "with_warm_up",
@@ -133,9 +139,133 @@ def search_1d(
     A log grid of :data:`GRID_POINTS` over ``range_s``, then at most
     :data:`SEARCH_STEPS` of parabolic interpolation (golden section where a parabola
     leaves the bracket) around the best; the trials are scored on a stride of the
-    engine's rows (:meth:`Engine.cv_coarse`) and the value found is cross-validated
-    on every row.
+    engine's rows (:meth:`Engine.cv_coarse`, or the core's search: :func:`tau_trials`)
+    and the value found is cross-validated on every row.
     """
+    best, _ = tau_trials(eng, axis, make, range_s)
+    return best, eng.cv(axis, make(best).terms(axis))
+
+
+#: Whether :func:`tau_trials` runs the search in the core when the model allows it
+#: (the same trials to rounding; False forces the Python loop, for tests and benches).
+CORE_SEARCH = True
+
+
+def tau_trials(
+    eng: Engine,
+    axis: str,
+    make: Callable[[float], Spec],
+    range_s: tuple[float, float],
+    *,
+    core: bool | None = None,
+) -> tuple[float, dict[float, float]]:
+    """Return the best time constant and every trial's score (rounded tau -> score).
+
+    The trials of :func:`search_1d`. ``core`` (default :data:`CORE_SEARCH`): run
+    them in the core (:class:`accelcore.core.TimeConstantSearch`) when the model's
+    columns that depend on tau are lagged temperature powers or decays (see
+    :func:`tau_columns`), else in Python, each through :meth:`Engine.cv_coarse`.
+    Both try the same values and score them alike to rounding (the core fits the
+    blocks of one fold as one block: the same sum of held-out errors); the core's
+    skips the Python of each trial and builds each tau's columns once for every axis.
+    """
+    if CORE_SEARCH if core is None else core:
+        recipe = tau_columns(eng, axis, make, range_s)
+        if recipe is not None:
+            best, trials = _core(eng).search(
+                *recipe,
+                range_s=range_s,
+                grid_points=GRID_POINTS,
+                steps=SEARCH_STEPS,
+                tol=TAU_TOL,
+            )
+            return best, {float(t): float(v) for t, v in trials}
+    return _python_trials(eng, axis, make, range_s)
+
+
+#: The core's search of each engine (it keeps the window means of the columns each
+#: time constant builds: every axis' model tries the same grid).
+_SEARCHES: weakref.WeakKeyDictionary[Engine, TimeConstantSearch] = weakref.WeakKeyDictionary()
+
+
+def _core(eng: Engine) -> TimeConstantSearch:
+    """Return the core's search over the engine's samples and windows (made once)."""
+    found = _SEARCHES.get(eng)
+    if found is None:
+        found = TimeConstantSearch(
+            eng._wholes,
+            eng._gather,
+            eng.elapsed_s,
+            eng.windows.w,
+            eng.windows.start,
+            eng.window_weight,
+            eng.window_block,
+            eng.block_fold,
+            t_ref_c=eng.t_ref_c,
+            stride=eng.coarse_stride,
+        )
+        _SEARCHES[eng] = found
+    return found
+
+
+def tau_columns(
+    eng: Engine, axis: str, make: Callable[[float], Spec], range_s: tuple[float, float]
+) -> tuple[FloatArray, FloatArray, list[tuple[str, int, FloatArray | None]]] | None:
+    """Return a model as the core's search takes it (fixed design, response, columns), or None.
+
+    The model's column keys at the two ends of ``range_s`` are compared: a key that
+    stays is a fixed column (its window means), one that follows tau must be a
+    lagged temperature power (``("lag", order, multiplier)``) or a decay
+    (``("decay", 0, multiplier)``), a gain's multiplier the window gravity of its
+    source. None when the model is anything else, when a fixed column could take the
+    place of one that follows tau at some trial value (two of one basis: the model
+    would hold it once), or when the range is not ``0 < lo < hi``.
+    """
+    lo, hi = range_s
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
+        return None
+    first = eng._keys(axis, make(lo).terms(axis))
+    second = eng._keys(axis, make(hi).terms(axis))
+    if len(first) != len(second):
+        return None
+    fixed: list[FloatArray] = []
+    fixed_keys: list[tuple[Basis, str | None]] = []
+    columns: list[tuple[str, int, FloatArray | None]] = []
+    moving: list[tuple[type, int, str | None]] = []
+    for (b1, s1), (b2, s2) in zip(first, second, strict=True):
+        if (b1, s1) == (b2, s2):
+            columns.append(("fixed", len(fixed), None))
+            fixed.append(eng._window_column((b1, s1)))
+            fixed_keys.append((b1, s1))
+            continue
+        if s1 != s2:
+            return None
+        multiplier = None if s1 is None else eng.window_gravity[:, AXES.index(s1)]
+        if isinstance(b1, LaggedTemperaturePower) and (b1, b2) == (
+            LaggedTemperaturePower(lo, b1.order),
+            LaggedTemperaturePower(hi, b1.order),
+        ):
+            columns.append(("lag", b1.order, multiplier))
+            moving.append((LaggedTemperaturePower, b1.order, s1))
+        elif isinstance(b1, Decay) and (b1, b2) == (Decay(lo), Decay(hi)):
+            columns.append(("decay", 0, multiplier))
+            moving.append((Decay, 0, s1))
+        else:
+            return None
+    if not moving:
+        return None
+    for basis, source in fixed_keys:
+        order = basis.order if isinstance(basis, LaggedTemperaturePower) else 0
+        if (type(basis), order, source) in moving:
+            return None
+    design = np.column_stack(fixed) if fixed else np.zeros((eng.n_windows, 0))
+    return design, eng._yc[axis], columns
+
+
+def _python_trials(
+    eng: Engine, axis: str, make: Callable[[float], Spec], range_s: tuple[float, float]
+) -> tuple[float, dict[float, float]]:
+    """Return the trials of :func:`search_1d`, each through :meth:`Engine.cv_coarse`."""
     cache: dict[float, float] = {}
     tau_range_s = range_s
 
@@ -178,7 +308,7 @@ def search_1d(
         if moved < TAU_TOL or b - a < 2 * TAU_TOL:
             break
     best = min(cache, key=lambda t: cache[t])
-    return best, eng.cv(axis, make(best).terms(axis))
+    return best, cache
 
 
 def tau_se(eng: Engine, axis: str, spec: Spec) -> float:

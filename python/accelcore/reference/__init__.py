@@ -26,6 +26,8 @@ One module per kernel, named as its Rust twin in ``rust/accelcore-core/src``:
 - :mod:`~accelcore.reference.stats`: the statistics that accept or reject a term
   (:func:`chi2_sf`, :func:`t_sf`, :func:`f_sf`, :func:`paired_test`, :func:`bonferroni`,
   :func:`holm`, :class:`AcceptanceRule`), plain functions rather than kernels;
+- :mod:`~accelcore.reference.search`: :class:`TimeConstantSearch`, a time constant by
+  the held-out error of trials built and refitted plainly;
 - :mod:`~accelcore.reference.errors`: the exceptions.
 
 The reference raises its own exception classes, which carry the same names as
@@ -51,6 +53,7 @@ from accelcore.reference.errors import (
 from accelcore.reference.heldout import HeldOut, cross_validate
 from accelcore.reference.regression import RANK_RTOL, LeastSquares, LstsqSolution
 from accelcore.reference.robust import running_median, sliding_median
+from accelcore.reference.search import TimeConstantSearch
 from accelcore.reference.stats import (
     Acceptance,
     AcceptanceRule,
@@ -83,6 +86,7 @@ __all__ = [
     "ShapeError",
     "SingularSystemError",
     "TemperatureBinner",
+    "TimeConstantSearch",
     "TimeOrderError",
     "bonferroni",
     "chi2_sf",

@@ -19,6 +19,7 @@
 //! - [`sliding_median`]: the median of every window of a series (the step check's).
 //! - [`stats`]: the statistics that accept or reject a term of the diagnosis (chi-square,
 //!   t and F tails, the paired test, Bonferroni and Holm, the acceptance rule).
+//! - [`TimeConstantSearch`]: a lag's or warm-up's time constant by held-out error.
 
 pub mod binning;
 pub mod compensate;
@@ -29,6 +30,7 @@ pub mod heldout;
 pub mod reader;
 pub mod regression;
 pub mod robust;
+pub mod search;
 pub mod stats;
 pub mod tally;
 
@@ -44,4 +46,8 @@ pub use reader::{
 };
 pub use regression::{LeastSquares, LstsqSolution};
 pub use robust::{running_median, sliding_median};
+pub use search::{
+    SampleSeries, SearchResult, SearchSettings, TauColumn, TimeConstantSearch, TrialModel,
+    WindowLayout,
+};
 pub use tally::{ChannelRange, RawStats, RunTally};

@@ -11,6 +11,7 @@ mod heldout;
 mod reader;
 mod regression;
 mod robust;
+mod search;
 mod stats;
 
 use pyo3::prelude::*;
@@ -35,6 +36,8 @@ mod _accelcore {
     use super::regression::{PyLeastSquares, PyLstsqSolution};
     #[pymodule_export]
     use super::robust::{py_running_median, py_sliding_median};
+    #[pymodule_export]
+    use super::search::PyTimeConstantSearch;
     #[pymodule_export]
     use super::stats::{
         py_bonferroni, py_chi2_sf, py_f_sf, py_holm, py_paired_test, py_t_sf, PyAcceptance,
