@@ -327,6 +327,12 @@ def _median_of_finite(
             if n % 2:
                 return float(0.0 + guess)
             return float((0.0 + guess + guess) / 2)
+    if n >= _SAMPLED_FROM:
+        middle = _middle_from_sample(a, k, n % 2 == 0)
+        if middle is not None:
+            if n % 2:
+                return float(0.0 + middle[1])
+            return float((0.0 + middle[0] + middle[1]) / 2)
     if overwrite:
         a.partition(k)
         part = a
@@ -335,6 +341,44 @@ def _median_of_finite(
     if n % 2:
         return float(0.0 + part[k])
     return float((0.0 + part[:k].max() + part[k]) / 2)
+
+
+#: From this many values on, :func:`_median_of_finite` first tries
+#: :func:`_middle_from_sample`: NumPy's selection takes 8–15 ns per value here.
+_SAMPLED_FROM = 4096
+#: Values in the sorted sample of :func:`_middle_from_sample`, about.
+_SAMPLE = 512
+
+
+def _middle_from_sample(
+    a: NDArray[np.float64], k: int, even: bool
+) -> tuple[float, float] | None:
+    """The order statistics ``k - 1`` (``k`` when not ``even``) and ``k`` of ``a``, or None.
+
+    Bounds on either side of the middle are read from a sorted sample of every
+    ``n // _SAMPLE``-th value; the values between them, which hold both ranks when
+    the counts say so, are partitioned alone; first, the sample's middle value is
+    tried as the answer by counting (tied values). The result is exact; None
+    (rarely: the sample misplaced the middle) leaves it to a partition of everything.
+    """
+    n = a.shape[0]
+    first = k - 1 if even else k
+    sample = np.sort(a[:: n // _SAMPLE])
+    m = sample.shape[0]
+    at = first * m // n
+    # Quantised data: often the sample's middle value is the middle of everything.
+    guess = sample[at]
+    n_below = int(np.count_nonzero(a < guess))
+    if n_below <= first and k < n_below + int(np.count_nonzero(a == guess)):
+        return float(guess), float(guess)
+    margin = int(1.5 * math.sqrt(m)) + 2  # three standard deviations of a sampled rank
+    lo, hi = sample[max(at - margin, 0)], sample[min(at + margin + 1, m - 1)]
+    n_below = int(np.count_nonzero(a < lo))
+    between = a[(a >= lo) & (a <= hi)]
+    if not n_below <= first < k + 1 <= n_below + between.shape[0]:
+        return None
+    between.partition((first - n_below, k - n_below))
+    return float(between[first - n_below]), float(between[k - n_below])
 
 
 def _check_outliers(
