@@ -327,13 +327,9 @@ def _median_of_finite(
             if n % 2:
                 return float(0.0 + guess)
             return float((0.0 + guess + guess) / 2)
-    if n >= _SAMPLED_FROM:
-        middle = _middle_from_sample(a, k, n % 2 == 0)
-        if middle is not None:
-            if n % 2:
-                return float(0.0 + middle[1])
-            return float((0.0 + middle[0] + middle[1]) / 2)
-    if overwrite:
+    if n >= _SAMPLED_FROM and (middle := _middle_from_sample(a, k, n % 2 == 0)) is not None:
+        part, k = middle, 1
+    elif overwrite:
         a.partition(k)
         part = a
     else:
@@ -343,42 +339,32 @@ def _median_of_finite(
     return float((0.0 + part[:k].max() + part[k]) / 2)
 
 
-#: From this many values on, :func:`_median_of_finite` first tries
-#: :func:`_middle_from_sample`: NumPy's selection takes 8–15 ns per value here.
-_SAMPLED_FROM = 4096
-#: Values in the sorted sample of :func:`_middle_from_sample`, about.
-_SAMPLE = 512
+#: From this many values on, medians are first sought by :func:`_middle_from_sample`
+#: (NumPy's selection takes 8–15 ns a value); it samples about ``_SAMPLE`` of them.
+_SAMPLED_FROM, _SAMPLE = 4096, 512
 
 
-def _middle_from_sample(
-    a: NDArray[np.float64], k: int, even: bool
-) -> tuple[float, float] | None:
-    """The order statistics ``k - 1`` (``k`` when not ``even``) and ``k`` of ``a``, or None.
+def _middle_from_sample(a: NDArray[np.float64], k: int, even: bool) -> NDArray[np.float64] | None:
+    """Return order statistics ``k - 1`` (``k`` if not ``even``) and ``k`` of ``a``, or None.
 
-    Bounds on either side of the middle are read from a sorted sample of every
-    ``n // _SAMPLE``-th value; the values between them, which hold both ranks when
-    the counts say so, are partitioned alone; first, the sample's middle value is
-    tried as the answer by counting (tied values). The result is exact; None
-    (rarely: the sample misplaced the middle) leaves it to a partition of everything.
+    Exact: the sample's middle value if counting shows it is the answer (ties), else
+    the partition of the values between two bounds read from the sorted sample, when
+    the counts show they hold both ranks; None (rare) leaves it to a full partition.
     """
-    n = a.shape[0]
-    first = k - 1 if even else k
+    n, first = a.shape[0], k - 1 if even else k
     sample = np.sort(a[:: n // _SAMPLE])
     m = sample.shape[0]
-    at = first * m // n
-    # Quantised data: often the sample's middle value is the middle of everything.
-    guess = sample[at]
-    n_below = int(np.count_nonzero(a < guess))
-    if n_below <= first and k < n_below + int(np.count_nonzero(a == guess)):
-        return float(guess), float(guess)
-    margin = int(1.5 * math.sqrt(m)) + 2  # three standard deviations of a sampled rank
+    at, margin = first * m // n, int(1.5 * math.sqrt(m)) + 2  # 3 sigma of a sampled rank
+    n_below = int(np.count_nonzero(a < sample[at]))
+    if n_below <= first and k < n_below + int(np.count_nonzero(a == sample[at])):
+        return sample[[at, at]]
     lo, hi = sample[max(at - margin, 0)], sample[min(at + margin + 1, m - 1)]
     n_below = int(np.count_nonzero(a < lo))
     between = a[(a >= lo) & (a <= hi)]
     if not n_below <= first < k + 1 <= n_below + between.shape[0]:
         return None
     between.partition((first - n_below, k - n_below))
-    return float(between[first - n_below]), float(between[k - n_below])
+    return np.array([between[first - n_below], between[k - n_below]])
 
 
 def _check_outliers(
