@@ -402,8 +402,6 @@ struct RowSink<'a> {
     tally: RunTally,
     batch: Batch,
     decimator: Decimator,
-    /// The decimated channels of the current row, in output order.
-    row: Vec<f64>,
     time_scale_to_s: f64,
     /// 1-based field index of the time column, for error messages.
     time_field: u64,
@@ -418,17 +416,16 @@ impl RowSink<'_> {
         let c = self.columns;
         let t = fields[c.time] * self.time_scale_to_s;
         let temperature = fields[c.temperature];
-        for (slot, &i) in self.row.iter_mut().zip(&c.channels) {
-            *slot = fields[i];
-        }
-        self.tally.push_row(t, temperature, &self.row);
         let batch = &mut self.batch;
+        let start = batch.channels.len();
+        batch.channels.extend(c.channels.iter().map(|&i| fields[i]));
+        self.tally
+            .push_row(t, temperature, &batch.channels[start..]);
         batch.time_s.push(t);
         batch.temperature_c.push(temperature);
-        batch.channels.extend_from_slice(&self.row);
         batch.lines.push(line_no);
         if batch.time_s.len() == batch.rows {
-            let n_channels = self.row.len();
+            let n_channels = c.channels.len();
             batch.flush(&mut self.decimator, n_channels, self.path, self.time_field)?;
         }
         Ok(())
@@ -918,7 +915,6 @@ fn read_body<R: BufRead>(
         tally: RunTally::new(n_channels, decimator.config().rate_hz)?,
         batch: Batch::new(n_channels),
         decimator,
-        row: vec![0.0; n_channels],
         time_scale_to_s: format.time_scale_to_s,
         time_field: columns.time as u64 + 1,
         path,
