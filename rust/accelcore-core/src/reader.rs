@@ -28,6 +28,9 @@ use crate::decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 use crate::error::{Error, Result};
 use crate::tally::{ChannelRange, RawStats, RunTally};
 
+mod cells;
+use cells::{fast_delimiter, parse_line_fast, Layout};
+
 /// How to read one log file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CsvFormat {
@@ -303,98 +306,6 @@ fn parse_plain_decimal(cell: &[u8]) -> Option<f64> {
     let fraction_digits = point.map_or(0, |p| digits.len() - p - 1);
     let value = mantissa as f64 / POW10[fraction_digits];
     Some(if negative { -value } else { value })
-}
-
-/// Whether rows split by `delimiter` may take [`parse_line_fast`]: not a byte a
-/// plain decimal or a line end is made of (the slow path handles any delimiter).
-fn fast_delimiter(delimiter: u8) -> bool {
-    !matches!(
-        delimiter,
-        b'0'..=b'9' | b'.' | b'+' | b'-' | b'\r' | b'\n' | b' '
-    )
-}
-
-/// The fast path of a whole data row at the start of `buf`: every one of the
-/// `fields.len()` cells a plain decimal ([`plain_cell`]), separated by `delimiter`,
-/// the last one followed by `\n` or `\r\n`. Returns the bytes the row takes,
-/// line end included, or None for anything else (an empty or other cell, another
-/// field count, a row cut by the end of `buf`), which then takes the slow path
-/// ([`BlockLines::next_line`], [`parse_row`]). A row this accepts is parsed to
-/// the same values, bit for bit, as the slow path would.
-#[inline]
-fn parse_line_fast(buf: &[u8], delimiter: u8, fields: &mut [f64]) -> Option<usize> {
-    let last = fields.len().checked_sub(1)?;
-    let mut pos = 0;
-    for slot in &mut fields[..last] {
-        let (value, end) = plain_cell(buf, pos)?;
-        if *buf.get(end)? != delimiter {
-            return None;
-        }
-        *slot = value;
-        pos = end + 1;
-    }
-    let (value, end) = plain_cell(buf, pos)?;
-    fields[last] = value;
-    match *buf.get(end)? {
-        b'\n' => Some(end + 1),
-        b'\r' if buf.get(end + 1) == Some(&b'\n') => Some(end + 2),
-        _ => None,
-    }
-}
-
-/// A plain decimal `[+-]digits[.digits]` (1 to 15 digits) starting at `pos`, as
-/// [`scan_plain`] computes it (the integer of all digits over an exact power of
-/// ten); returns the value and the index of the first byte after it, or None.
-///
-/// One byte loop per run of digits: in a log the cells of a column keep their
-/// width from row to row, so the loops' exits are predicted and the next cell's
-/// position is known ahead of the digits' values (a word-at-a-time version, whose
-/// positions come from the data, was 25 % slower).
-#[inline]
-fn plain_cell(buf: &[u8], pos: usize) -> Option<(f64, usize)> {
-    let mut k = pos;
-    let negative = match buf.get(k) {
-        Some(b'-') => {
-            k += 1;
-            true
-        }
-        Some(b'+') => {
-            k += 1;
-            false
-        }
-        _ => false,
-    };
-    let mut mantissa: u64 = 0;
-    let first = k;
-    while let Some(&b) = buf.get(k) {
-        let d = b.wrapping_sub(b'0');
-        if d >= 10 {
-            break;
-        }
-        mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
-        k += 1;
-    }
-    let mut n_digits = k - first;
-    let mut fraction_digits = 0;
-    if buf.get(k) == Some(&b'.') {
-        k += 1;
-        let after_point = k;
-        while let Some(&b) = buf.get(k) {
-            let d = b.wrapping_sub(b'0');
-            if d >= 10 {
-                break;
-            }
-            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
-            k += 1;
-        }
-        fraction_digits = k - after_point;
-        n_digits += fraction_digits;
-    }
-    if n_digits == 0 || n_digits > 15 {
-        return None;
-    }
-    let value = mantissa as i64 as f64 / POW10[fraction_digits];
-    Some((if negative { -value } else { value }, k))
 }
 
 /// Where parsed rows go: the raw-row tally and the batch of rows for the decimator.
@@ -921,6 +832,7 @@ fn read_body<R: BufRead>(
         columns: &columns,
     };
     let mut fields: Vec<f64> = vec![0.0; n_fields];
+    let mut layouts = vec![Layout::default(); n_fields];
     let mut n_truncated = 0u64;
     let fast = fast_delimiter(format.delimiter);
     let mut lines = BlockLines::new(&mut reader);
@@ -928,9 +840,12 @@ fn read_body<R: BufRead>(
         if fast {
             // Every row the fast path takes, straight from the buffer: no line search.
             let mut used = 0;
-            while let Some(n) =
-                parse_line_fast(&lines.pending()[used..], format.delimiter, &mut fields)
-            {
+            while let Some(n) = parse_line_fast(
+                &lines.pending()[used..],
+                format.delimiter,
+                &mut fields,
+                &mut layouts,
+            ) {
                 used += n;
                 line_no += 1;
                 sink.take(&fields, line_no)?;
