@@ -20,9 +20,8 @@ import os
 import subprocess
 import sys
 import time
-from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -77,7 +76,7 @@ def _lines(temp: Any, v_p: Any, v_m: Any) -> tuple[Any, Any]:
     return np.polyfit(dt, 0.5 * (v_p + v_m), 1), np.polyfit(dt, 0.5 * (v_p - v_m), 1)
 
 
-def with_pandas(path: Path, engine: str = "c") -> dict[str, Any]:
+def with_pandas(path: Path, engine: Literal["c", "pyarrow"] = "c") -> dict[str, Any]:
     """The paper's method as a user would write it with pandas and NumPy."""
     import pandas as pd
 
@@ -181,7 +180,7 @@ def run(ctx: Context) -> list[Table]:
     if importlib.util.find_spec("pandas") is None:
         table.notes.append("skipped pandas: it is not installed")
     else:
-        engines = [("c", PANDAS_C)]
+        engines: list[tuple[Literal["c", "pyarrow"], str]] = [("c", PANDAS_C)]
         if importlib.util.find_spec("pyarrow") is not None:
             engines.append(("pyarrow", PANDAS_ARROW))
         for engine, name in engines:
