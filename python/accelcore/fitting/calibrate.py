@@ -72,7 +72,8 @@ def fit_axis(
     notes: list[str] = []
     names = [f"{axis}:{_public_name(t, axis)}" for t in terms]
     # Drop all-zero columns first (e.g. the sensitivity of an axis that never saw gravity).
-    col_norm = np.sqrt((weight[:, None] * design**2).sum(axis=0))
+    # Only compared with 0: one pass without temporaries, in any summation order.
+    col_norm = np.sqrt(np.einsum("i,ij,ij->j", weight, design, design))
     n_used = int(np.count_nonzero(weight > 0))
     for j, span, span_all in _thin_temperature_terms(axis, terms, data, parts, weight):
         estimated[j] = False
@@ -93,9 +94,9 @@ def fit_axis(
                 f"axis {axis}: {n_used} decimated sample(s) for {cols.size} model terms; a fit "
                 "needs more samples than terms (log longer sweeps, or check rate_hz)"
             )
-        y = response - design[:, ~estimated] @ fixed[~estimated]
+        y, x = _held_out(design, response, estimated, fixed)
         lsq = core.LeastSquares(int(cols.size), column_names=[names[j] for j in cols])
-        lsq.push(np.ascontiguousarray(design[:, cols]), y, weight)
+        lsq.push(x, y, weight)
         try:
             sol = lsq.finish()
             break
@@ -137,9 +138,9 @@ def fit_axis(
     # Refit if a nominal was introduced after the loop (response changed).
     if np.any(fixed != 0):
         cols = np.flatnonzero(estimated)
-        y = response - design[:, ~estimated] @ fixed[~estimated]
+        y, x = _held_out(design, response, estimated, fixed)
         lsq = core.LeastSquares(int(cols.size), column_names=[names[j] for j in cols])
-        lsq.push(np.ascontiguousarray(design[:, cols]), y, weight)
+        lsq.push(x, y, weight)
         sol = lsq.finish()
     coefficients = fixed.copy()
     coefficients[estimated] = sol.coefficients
@@ -151,6 +152,23 @@ def fit_axis(
         axis, tuple(terms), coefficients, covariance, estimated, int(response.shape[0]), rms
     )
     return model, fixed_names, notes
+
+
+def _held_out(
+    design: NDArray[np.float64],
+    response: NDArray[np.float64],
+    estimated: NDArray[np.bool_],
+    fixed: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Return the response less the fixed terms, and the estimated columns in C order.
+
+    With every term estimated (the usual case), the response and the design as they are:
+    subtracting the empty product would change no bit, and a column selection would copy.
+    """
+    if estimated.all():
+        return response, np.ascontiguousarray(design)
+    y = response - design[:, ~estimated] @ fixed[~estimated]
+    return y, np.ascontiguousarray(design.take(np.flatnonzero(estimated), axis=1))
 
 
 #: A temperature term is identified only by samples spread over at least this

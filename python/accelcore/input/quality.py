@@ -324,7 +324,9 @@ def _median_of_finite(
             if n % 2:
                 return float(0.0 + guess)
             return float((0.0 + guess + guess) / 2)
-    if overwrite:
+    if n >= _SAMPLED_FROM and (middle := _middle_from_sample(a, k, n % 2 == 0)) is not None:
+        part, k = middle, 1
+    elif overwrite:
         a.partition(k)
         part = a
     else:
@@ -332,6 +334,34 @@ def _median_of_finite(
     if n % 2:
         return float(0.0 + part[k])
     return float((0.0 + part[:k].max() + part[k]) / 2)
+
+
+#: From this many values on, medians are first sought by :func:`_middle_from_sample`
+#: (NumPy's selection takes 8–15 ns a value); it samples about ``_SAMPLE`` of them.
+_SAMPLED_FROM, _SAMPLE = 4096, 512
+
+
+def _middle_from_sample(a: NDArray[np.float64], k: int, even: bool) -> NDArray[np.float64] | None:
+    """Return order statistics ``k - 1`` (``k`` if not ``even``) and ``k`` of ``a``, or None.
+
+    Exact: the sample's middle value if counting shows it is the answer (ties), else
+    the partition of the values between two bounds read from the sorted sample, when
+    the counts show they hold both ranks; None (rare) leaves it to a full partition.
+    """
+    n, first = a.shape[0], k - 1 if even else k
+    sample = np.sort(a[:: n // _SAMPLE])
+    m = sample.shape[0]
+    at, margin = first * m // n, int(1.5 * math.sqrt(m)) + 2  # 3 sigma of a sampled rank
+    n_below = int(np.count_nonzero(a < sample[at]))
+    if n_below <= first and k < n_below + int(np.count_nonzero(a == sample[at])):
+        return sample[[at, at]]
+    lo, hi = sample[max(at - margin, 0)], sample[min(at + margin + 1, m - 1)]
+    n_below = int(np.count_nonzero(a < lo))
+    between = a[(a >= lo) & (a <= hi)]
+    if not n_below <= first < k + 1 <= n_below + between.shape[0]:
+        return None
+    between.partition((first - n_below, k - n_below))
+    return np.array([between[first - n_below], between[k - n_below]])
 
 
 def _check_outliers(

@@ -871,12 +871,13 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
     /// `x(t) = (t - t0) * rate_hz / factor` (evaluated exactly as in the hot
     /// loop) is at least `m`. `x` is monotone in `t` (each rounding step is), so
     /// `t < boundary(k + 1)` is the same test as `floor(x(t)) <= k`. The guess
-    /// `t0 + m * factor / rate_hz` is corrected ulp by ulp; `None` when that
-    /// does not settle within a few ulps (ill-scaled `t0`, overflow).
-    fn boundary(t0: f64, rate_hz: f64, factor: f64, m: f64) -> Option<f64> {
+    /// `t0 + m * block_s` (`block_s = factor / rate_hz`, divided once by the
+    /// caller) is corrected ulp by ulp; `None` when that does not settle within a
+    /// few ulps (ill-scaled `t0`, overflow).
+    fn boundary(t0: f64, rate_hz: f64, factor: f64, block_s: f64, m: f64) -> Option<f64> {
         const MAX_STEPS: usize = 8;
         let x = |t: f64| (t - t0) * rate_hz / factor;
-        let mut g = t0 + m * factor / rate_hz;
+        let mut g = t0 + m * block_s;
         if !g.is_finite() {
             return None;
         }
@@ -929,6 +930,7 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
         let n = time_s.len();
         let (t0, rate_hz, factor) = (self.t0, self.rate_hz, self.factor);
         let x_of = |t: f64| (t - t0) * rate_hz / factor;
+        let block_s = factor / rate_hz;
         let (mut index, mut lo, mut hi) = (self.index, self.lo, self.hi);
         let (mut count, mut sum_time, mut sum_temp) = (self.count, self.sum_time, self.sum_temp);
         let sums = self.sums.as_mut();
@@ -952,7 +954,7 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
                         break;
                     }
                     let k = x.floor();
-                    let Some(end) = Self::boundary(t0, rate_hz, factor, k + 1.0) else {
+                    let Some(end) = Self::boundary(t0, rate_hz, factor, block_s, k + 1.0) else {
                         break;
                     };
                     #[allow(clippy::cast_possible_truncation)]
@@ -962,14 +964,19 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
             };
             // Rows of the run: usually as many as last time (check both ends;
             // times increase), otherwise scan.
-            let guess = i + run_len;
-            let j = if guess <= n && time_s[guess - 1] < end && (guess == n || time_s[guess] >= end)
-            {
-                guess
-            } else {
-                let mut j = i + 1;
+            // Otherwise step from the guess: a run is rarely more than a row or
+            // two longer or shorter than the previous one.
+            let guess = (i + run_len).min(n);
+            let j = if time_s[guess - 1] < end {
+                let mut j = guess;
                 while j < n && time_s[j] < end {
                     j += 1;
+                }
+                j
+            } else {
+                let mut j = guess - 1;
+                while j > i + 1 && time_s[j - 1] >= end {
+                    j -= 1;
                 }
                 j
             };
@@ -982,15 +989,20 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
                 // A new block: sum the run from zero as the block's own sums
                 // would be (same operands, same order). A NaN or infinity makes
                 // some sum non-finite; only then look at the rows one by one.
+                // One loop: the 2 + nc sums are independent chains of additions,
+                // which the core then overlaps.
                 let (mut st, mut sp) = (0.0, 0.0);
                 let mut sc = [0.0; SPECULATE_CHANNELS];
                 let sc = &mut sc[..nc];
-                for (&tt, &tp) in rt.iter().zip(rtemp) {
-                    st += tt;
-                    sp += tp;
-                }
-                if nc > 0 {
-                    for row in rch.chunks_exact(nc) {
+                if nc == 0 {
+                    for (&tt, &tp) in rt.iter().zip(rtemp) {
+                        st += tt;
+                        sp += tp;
+                    }
+                } else {
+                    for ((&tt, &tp), row) in rt.iter().zip(rtemp).zip(rch.chunks_exact(nc)) {
+                        st += tt;
+                        sp += tp;
                         for (acc, &v) in sc.iter_mut().zip(row) {
                             *acc += v;
                         }
@@ -1040,7 +1052,7 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
             if i < n {
                 #[allow(clippy::cast_precision_loss)]
                 let after = k as f64 + 2.0;
-                if let Some(e2) = Self::boundary(t0, rate_hz, factor, after) {
+                if let Some(e2) = Self::boundary(t0, rate_hz, factor, block_s, after) {
                     next = Some((k + 1, end, e2));
                 }
             }

@@ -28,6 +28,9 @@ use crate::decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 use crate::error::{Error, Result};
 use crate::tally::{ChannelRange, RawStats, RunTally};
 
+mod cells;
+use cells::{fast_delimiter, parse_line_fast, Layout};
+
 /// How to read one log file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CsvFormat {
@@ -305,6 +308,41 @@ fn parse_plain_decimal(cell: &[u8]) -> Option<f64> {
     Some(if negative { -value } else { value })
 }
 
+/// Where parsed rows go: the raw-row tally and the batch of rows for the decimator.
+struct RowSink<'a> {
+    tally: RunTally,
+    batch: Batch,
+    decimator: Decimator,
+    time_scale_to_s: f64,
+    /// 1-based field index of the time column, for error messages.
+    time_field: u64,
+    path: &'a str,
+    columns: &'a ColumnMap,
+}
+
+impl RowSink<'_> {
+    /// Take one parsed row (`fields` in header order) read from line `line_no`.
+    #[inline]
+    fn take(&mut self, fields: &[f64], line_no: u64) -> Result<()> {
+        let c = self.columns;
+        let t = fields[c.time] * self.time_scale_to_s;
+        let temperature = fields[c.temperature];
+        let batch = &mut self.batch;
+        let start = batch.channels.len();
+        batch.channels.extend(c.channels.iter().map(|&i| fields[i]));
+        self.tally
+            .push_row(t, temperature, &batch.channels[start..]);
+        batch.time_s.push(t);
+        batch.temperature_c.push(temperature);
+        batch.lines.push(line_no);
+        if batch.time_s.len() == batch.rows {
+            let n_channels = c.channels.len();
+            batch.flush(&mut self.decimator, n_channels, self.path, self.time_field)?;
+        }
+        Ok(())
+    }
+}
+
 /// Lines straight out of a large block buffer: no copy per line, and the line
 /// end is found with `memchr` (SIMD) rather than byte by byte. A line longer than
 /// [`MAX_LINE_BYTES`] is an error, as with [`read_line`].
@@ -325,6 +363,16 @@ impl<R: Read> BlockLines<R> {
             end: 0,
             eof: false,
         }
+    }
+
+    /// The buffered bytes not handed out yet (whole lines, then maybe part of one).
+    fn pending(&self) -> &[u8] {
+        &self.buf[self.start..self.end]
+    }
+
+    /// Mark the first `n` bytes of [`Self::pending`] as read.
+    fn consume(&mut self, n: usize) {
+        self.start += n;
     }
 
     /// The next line including its `\n` (the last line may lack it), or None at the end.
@@ -664,7 +712,8 @@ pub fn read_run_from<R: Read>(
     decimator: DecimatorConfig,
 ) -> Result<RunData> {
     check_format(format)?;
-    let mut reader = BufReader::with_capacity(1 << 20, reader);
+    // Small: only the header is read through it; the body's reads bypass it.
+    let mut reader = BufReader::with_capacity(1 << 13, reader);
     let (header, header_line, _) = read_header(&mut reader, path, format)?;
     read_body(
         reader,
@@ -769,18 +818,45 @@ fn read_body<R: BufRead>(
     let columns = map_columns(path, &header, header_line, format)?;
     let n_fields = header.len();
     let n_channels = columns.channels.len();
-    let mut decimator = Decimator::new(DecimatorConfig {
+    let decimator = Decimator::new(DecimatorConfig {
         n_channels,
         ..decimator
     })?;
-    let mut batch = Batch::new(n_channels);
+    let mut sink = RowSink {
+        tally: RunTally::new(n_channels, decimator.config().rate_hz)?,
+        batch: Batch::new(n_channels),
+        decimator,
+        time_scale_to_s: format.time_scale_to_s,
+        time_field: columns.time as u64 + 1,
+        path,
+        columns: &columns,
+    };
     let mut fields: Vec<f64> = vec![0.0; n_fields];
-    let mut tally = RunTally::new(n_channels, decimator.config().rate_hz)?;
-    let mut row: Vec<f64> = vec![0.0; n_channels];
+    let mut layouts = vec![Layout::default(); n_fields];
     let mut n_truncated = 0u64;
-    let time_field = columns.time as u64 + 1;
+    let fast = fast_delimiter(format.delimiter);
     let mut lines = BlockLines::new(&mut reader);
-    while let Some(line) = lines.next_line(path, line_no + 1)? {
+    loop {
+        if fast {
+            // Every row the fast path takes, straight from the buffer: no line search.
+            let mut used = 0;
+            while let Some(n) = parse_line_fast(
+                &lines.pending()[used..],
+                format.delimiter,
+                &mut fields,
+                &mut layouts,
+            ) {
+                used += n;
+                line_no += 1;
+                sink.take(&fields, line_no)?;
+            }
+            lines.consume(used);
+        }
+        // Anything else (blank lines, other cells, errors, a line cut by the
+        // buffer's end) one line at a time.
+        let Some(line) = lines.next_line(path, line_no + 1)? else {
+            break;
+        };
         line_no += 1;
         let ends_with_newline = line.last() == Some(&b'\n');
         let text = strip_line_end(line);
@@ -815,20 +891,15 @@ fn read_body<R: BufRead>(
                 ),
             ));
         }
-        let t = fields[columns.time] * format.time_scale_to_s;
-        let temperature = fields[columns.temperature];
-        for (slot, &c) in row.iter_mut().zip(&columns.channels) {
-            *slot = fields[c];
-        }
-        tally.push_row(t, temperature, &row);
-        batch.time_s.push(t);
-        batch.temperature_c.push(temperature);
-        batch.channels.extend_from_slice(&row);
-        batch.lines.push(line_no);
-        if batch.time_s.len() == batch.rows {
-            batch.flush(&mut decimator, n_channels, path, time_field)?;
-        }
+        sink.take(&fields, line_no)?;
     }
+    let RowSink {
+        tally,
+        mut batch,
+        mut decimator,
+        time_field,
+        ..
+    } = sink;
     batch.flush(&mut decimator, n_channels, path, time_field)?;
     let stats = tally.finish();
     let n_rows = stats.n_rows;
@@ -963,7 +1034,7 @@ pub fn read_run_range(
     let mut file = reader.into_inner();
     file.seek(SeekFrom::Start(start))
         .map_err(|e| io_error(&shown, &e))?;
-    let body = BufReader::with_capacity(1 << 20, file.take(end.saturating_sub(start)));
+    let body = BufReader::with_capacity(1 << 13, file.take(end.saturating_sub(start)));
     let first_line = (start == data_start).then_some(header_line);
     read_body(
         body,
