@@ -47,6 +47,7 @@ from accelcore.model import (
     Elapsed,
     Extra,
     Features,
+    Hinge,
     LaggedTemperaturePower,
     TemperaturePower,
     Term,
@@ -322,6 +323,9 @@ class Engine:
                 lower = replace(key, order=key.order - 1)
                 first = replace(key, order=1)
                 self._basis_cache[key] = self.basis(lower) * self.basis(first)
+        if key not in self._basis_cache and isinstance(key, Hinge):
+            # max(B - k, 0) of the observable's column: the same floats as per part.
+            self._basis_cache[key] = np.maximum(self.basis(key.inner) - key.knot, 0.0)
         if key not in self._basis_cache:
             one = Term("offset", key)
             self._basis_cache[key] = np.concatenate(

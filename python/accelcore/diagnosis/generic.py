@@ -17,6 +17,7 @@ ever enter here, it is a session event (:func:`accelcore.diagnosis.space.is_even
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Container, Sequence
 from dataclasses import replace
@@ -141,12 +142,16 @@ def slot_name(source: str | None) -> str:
     return "offset" if source is None else f"gain on g_{source}"
 
 
+@functools.lru_cache(maxsize=4096)
 def _slot_terms(
-    inner: Basis, source: str | None, family: str, knot_values: Sequence[float]
-) -> list[Term]:
+    inner: Basis, source: str | None, family: str, knot_values: tuple[float, ...]
+) -> tuple[Term, ...]:
+    # Terms are immutable values: each step and axis asks for the same ones again.
     kind: Literal["offset", "gain"] = "offset" if source is None else "gain"
-    line = [Term(kind, inner, source=source, effect=family)]
-    return line + [Term(kind, Hinge(k, inner), source=source, effect=family) for k in knot_values]
+    line = (Term(kind, inner, source=source, effect=family),)
+    return line + tuple(
+        Term(kind, Hinge(k, inner), source=source, effect=family) for k in knot_values
+    )
 
 
 def _key(t: Term) -> tuple[str, Basis, str | None]:
