@@ -345,10 +345,7 @@ class Engine:
 
     def column(self, term: Term) -> FloatArray:
         """Return the design column of a term (a gain term's basis times its gravity)."""
-        col = self.basis(term.basis)
-        if term.kind == "gain":
-            col = col * self.gravity[:, AXES.index(term.source or "x")]
-        return col
+        return self._key_column(_key(term))
 
     def free_terms(self, axis: str, terms: Sequence[Term]) -> tuple[Term, ...]:
         """Terms minus those the base held fixed (matched ignoring lag)."""
@@ -484,15 +481,10 @@ class Engine:
             return col
         return col * self.window_gravity[:, AXES.index(source)]
 
-    def _key_column(self, key: _Key, rows: slice | None = None) -> FloatArray:
+    def _key_column(self, key: _Key) -> FloatArray:
         basis, source = key
         col = self.basis(basis)
-        if rows is not None:
-            col = col[rows]
-        if source is None:
-            return col
-        g = self.gravity[:, AXES.index(source)]
-        return col * (g if rows is None else g[rows])
+        return col if source is None else col * self.gravity[:, AXES.index(source)]
 
     def _keys(self, axis: str, terms: Sequence[Term]) -> tuple[_Key, ...]:
         """Column keys of the free terms of an axis model, in term order."""

@@ -424,11 +424,36 @@ def load_session(
     2 s before they are read are not cached. ``session.toml`` is always read
     and hashed.
     """
+    check_load_options(decimation_factor, min_count, digest)
+    return load_folder(
+        SessionFormat.read(path),
+        decimation_factor=decimation_factor,
+        min_count=min_count,
+        cache=cache,
+        digest=digest,
+    )
+
+
+def check_load_options(decimation_factor: int | None, min_count: int, digest: str) -> None:
+    """Refuse bad :func:`load_session` arguments as the caller's error, before any file."""
     if decimation_factor is not None:
         _check_read_options(decimation_factor, min_count)
     if digest not in DIGESTS:
         raise _parameter("digest", f"must be one of {', '.join(DIGESTS)}, got {digest!r}")
-    fmt = SessionFormat.read(path)
+
+
+def load_folder(
+    fmt: SessionFormat,
+    *,
+    decimation_factor: int | None,
+    min_count: int,
+    cache: CacheSetting,
+    digest: str,
+) -> Session:
+    """Read the run files of a parsed ``session.toml`` (:func:`load_session`'s work).
+
+    The options are :func:`load_session`'s, already checked by the caller.
+    """
     if fmt.log is not None:  # one log, not run files: accelcore.input.single_log reads it
         raise SessionFormatError(
             f"{fmt.toml_path}: names one log (log = {fmt.log.file!r}); read it with "

@@ -94,14 +94,6 @@ def _read(spec: LogSpec, fmt: SessionFormat, **options: Any) -> Session:
     )
 
 
-def _check_options(decimation_factor: int | None, min_count: int, digest: str) -> None:
-    """Refuse bad arguments as the caller's error, before any file is read."""
-    if decimation_factor is not None:
-        folders._check_read_options(decimation_factor, min_count)
-    if digest not in DIGESTS:
-        raise folders._parameter("digest", f"must be one of {', '.join(DIGESTS)}, got {digest!r}")
-
-
 def _state(path: Path) -> tuple[int, int, int, int]:
     st = path.stat()
     return (st.st_size, st.st_mtime_ns, st.st_ino, st.st_dev)
@@ -156,7 +148,7 @@ def read_log_session(
     spec = fmt.log
     if spec is None:
         raise SessionFormatError(f'{fmt.toml_path}: names no log (log = "FILE")')
-    _check_options(decimation_factor, min_count, digest)
+    folders.check_load_options(decimation_factor, min_count, digest)
     before = _state(spec.path)
     session = _read(spec, fmt, decimation_factor=decimation_factor, min_count=min_count)
     digests = {
@@ -216,11 +208,11 @@ def load_session(
         A Parquet or TDMS log, and pyarrow or npTDMS is not installed (the
         message names the extra).
     """
-    _check_options(decimation_factor, min_count, digest)
+    folders.check_load_options(decimation_factor, min_count, digest)
     fmt = SessionFormat.read(path)
     if fmt.log is None:
-        return folders.load_session(
-            path,
+        return folders.load_folder(
+            fmt,
             decimation_factor=decimation_factor,
             min_count=min_count,
             cache=cache,
@@ -357,7 +349,7 @@ def open_log(
         The file does not say what reading it needs, or is a run file of the session
         beside it (one line: :func:`alone_problem`), or it is not a single log.
     """
-    _check_options(decimation_factor, min_count, digest)
+    folders.check_load_options(decimation_factor, min_count, digest)
     layout = log_layout(path)
     if layout is None:
         raise SessionFormatError(f"{path}: not a single log ({', '.join(LOG_LAYOUTS)})")
