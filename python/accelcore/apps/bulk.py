@@ -24,8 +24,12 @@ Guarantees
 Parallelism: sessions run in worker *processes* (``concurrent.futures``); the
 Rust reader releases the GIL, but calibration and diagnosis spend much of their
 time in NumPy and Python, so threads would serialise (see the README for the
-measurement). With a Dask ``client`` the same function runs on a cluster,
-sessions as tasks.
+measurement). Each worker gets its share of the cores: it reads a session's logs
+with ``cores // jobs`` threads and runs NumPy's BLAS on one thread (the
+products here are tall and thin, where BLAS threads gain nothing, and their
+idle spinning took a quarter of the CPU from the other worker); a single-job
+run keeps BLAS on one thread too. With a Dask ``client`` the same function runs
+on a cluster, sessions as tasks.
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
 from accelcore._accelcore import __version__, merge_runs, plan_split, read_run_range
 from accelcore.apps.fleet_rows import fleet_rows
@@ -52,6 +57,7 @@ from accelcore.diagnosis import diagnose as run_diagnosis
 from accelcore.errors import AccelcoreError
 from accelcore.files import atomic_write
 from accelcore.fitting.calibrate import calibrate
+from accelcore.input import session as session_reader
 from accelcore.input.cache import CacheSetting
 from accelcore.input.format import SessionFormat
 from accelcore.input.quality import check_session
@@ -335,6 +341,13 @@ def watch_parent(parent_pid: int, interval_s: float = 1.0) -> None:
     threading.Thread(target=watch, name="accelcore-watch-parent", daemon=True).start()
 
 
+def _start_worker(parent_pid: int, read_threads: int) -> None:
+    """Initialise a worker process: watch the parent, take a share of the cores."""
+    watch_parent(parent_pid)
+    session_reader.read_threads = read_threads
+    threadpool_limits(limits=1, user_api="blas")
+
+
 def _run_local(
     archive: Path,
     sessions: Sequence[str],
@@ -346,13 +359,15 @@ def _run_local(
     """Process the sessions here or in worker processes; ``options`` go to process_session."""
     outcomes: list[SessionOutcome] = []
     if jobs <= 1:
-        for rel in sessions:
-            o = process_session(archive, rel, out, **options)
-            on_done(o)
-            outcomes.append(o)
+        with threadpool_limits(limits=1, user_api="blas"):
+            for rel in sessions:
+                o = process_session(archive, rel, out, **options)
+                on_done(o)
+                outcomes.append(o)
         return outcomes
+    share = max(1, (os.cpu_count() or 1) // jobs)
     with ProcessPoolExecutor(
-        max_workers=jobs, initializer=watch_parent, initargs=(os.getpid(),)
+        max_workers=jobs, initializer=_start_worker, initargs=(os.getpid(), share)
     ) as pool:
         futures: list[Future[SessionOutcome]] = [
             pool.submit(process_session, archive, rel, out, **options) for rel in sessions

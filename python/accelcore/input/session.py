@@ -349,6 +349,12 @@ def _make_run(
     )
 
 
+#: Logs of one session read at once; None: one per core. A bulk worker process sets
+#: it to its share of the cores (:mod:`accelcore.apps.bulk`), so that jobs times
+#: threads never exceeds the cores.
+read_threads: int | None = None
+
+
 class _ReadParams(TypedDict):
     """Keyword arguments of :func:`read_run`: all of them key the run cache."""
 
@@ -492,7 +498,8 @@ def load_folder(
     if len(missing) > 1:
         # The Rust reader releases the GIL: read the runs on all cores at once, each
         # hashed (provenance) in the same pass as it is parsed.
-        with ThreadPoolExecutor(max_workers=min(len(missing), os.cpu_count() or 1)) as pool:
+        threads = read_threads or os.cpu_count() or 1
+        with ThreadPoolExecutor(max_workers=min(len(missing), threads)) as pool:
             records = list(pool.map(read, [run_files[i] for i in missing]))
     else:
         records = [read(run_files[i]) for i in missing]
