@@ -1,6 +1,6 @@
 """The quality checks' median of many values, taken from a sorted sample, is ``np.median``.
 
-From :data:`accelcore.input.quality._SAMPLED_FROM` values on, ``_median_of_finite``
+From :data:`accelcore.input.quality._SAMPLED_FROM` values on, ``median_of_finite``
 selects the middle among the values between two bounds read from a sample, and
 falls back to a partition of everything when the sample misplaces the middle;
 either way the result must be ``np.median``'s, bit for bit.
@@ -13,7 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from numpy.typing import NDArray
 
-from accelcore.input.quality import _SAMPLED_FROM, _median_of_finite, _middle_from_sample
+from accelcore.input.quality import _SAMPLED_FROM, _middle_from_sample, median_of_finite
 from strategies import seeds
 
 FloatArray = NDArray[np.float64]
@@ -52,8 +52,8 @@ def _bits(x: float) -> bytes:
 def test_the_sampled_median_is_np_median(n: int, seed: int, kind: str) -> None:
     a = _values(kind, n, seed)
     want = _bits(float(np.median(a)))
-    assert _bits(_median_of_finite(a.copy())) == want
-    assert _bits(_median_of_finite(a.copy(), overwrite=True)) == want
+    assert _bits(median_of_finite(a.copy())) == want
+    assert _bits(median_of_finite(a.copy(), overwrite=True)) == want
     # The selection itself: the two middle order statistics, or None.
     k = n // 2
     middle = _middle_from_sample(a.copy(), k, n % 2 == 0)
@@ -76,4 +76,4 @@ def test_a_misleading_sample_falls_back_to_the_partition() -> None:
     a = np.arange(n, dtype=np.float64) * 1e-6
     a[::step] = 1e3 + np.arange(a[::step].size)
     assert _middle_from_sample(a.copy(), n // 2, True) is None
-    assert _bits(_median_of_finite(a)) == _bits(float(np.median(a)))
+    assert _bits(median_of_finite(a)) == _bits(float(np.median(a)))

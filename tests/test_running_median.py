@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 import accelcore
 from accelcore import reference
 from accelcore.core import running_median
-from accelcore.input.quality import _median_of_finite, _robust_sigma, _running_median
+from accelcore.input.quality import _robust_sigma, _running_median, median_of_finite
 from strategies import seeds
 
 FloatArray = NDArray[np.float64]
@@ -157,7 +157,7 @@ def test_median_of_finite_is_np_median(n: int, seed: int, pool_fraction: float) 
     for values in (a, np.abs(a)):
         if values.size:
             want = np.array([np.median(values)])
-            assert_bitwise_equal(np.array([_median_of_finite(values)]), want)
+            assert_bitwise_equal(np.array([median_of_finite(values)]), want)
 
 
 @given(
@@ -176,8 +176,8 @@ def test_median_of_finite_with_a_guess_is_np_median(
         return
     guess = {"zero": 0.0, "value": float(a[seed % a.size]), "other": 0.123456789}[guess_from]
     want = np.array([np.median(a)])
-    assert_bitwise_equal(np.array([_median_of_finite(a, guess=guess)]), want)
-    assert_bitwise_equal(np.array([_median_of_finite(a.copy(), overwrite=True)]), want)
+    assert_bitwise_equal(np.array([median_of_finite(a, guess=guess)]), want)
+    assert_bitwise_equal(np.array([median_of_finite(a.copy(), overwrite=True)]), want)
 
 
 def _former_robust_sigma(r: FloatArray) -> float:

@@ -292,8 +292,8 @@ class Engine:
         ]
         #: Knots of each observable of the generic family (filled by that family).
         self.knot_cache: dict[tuple[Basis, tuple[float, ...]], tuple[float, ...]] = {}
-        #: The weighted samples of each observable, sorted (for its knots).
-        self.sorted_cache: dict[Basis, FloatArray] = {}
+        #: The weighted samples of each observable and their 5–95 % span (for its knots).
+        self.span_cache: dict[Basis, tuple[FloatArray, tuple[float, float] | None]] = {}
         self._attempted: set[tuple[str, str]] = set()
         self._model_keys: tuple[_Key, ...] = ()
         # Catalogues of columns, their rows pushed once: (column index, folds) per lag,

@@ -33,6 +33,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
+from accelcore.input.quality import median_of_finite
 from accelcore.model import AXES, Constant, RunStep, Term
 
 from .engine import Engine
@@ -55,7 +56,10 @@ def _noise_mg(r: FloatArray) -> float:
     if r.size < 3:
         return math.nan
     d = np.diff(r)
-    return float(np.median(np.abs(d - np.median(d))) / 0.6745 / math.sqrt(2.0))
+    mid = median_of_finite(d)
+    d -= mid
+    np.abs(d, out=d)
+    return median_of_finite(d, overwrite=True) / 0.6745 / math.sqrt(2.0)
 
 
 def _runs(eng: Engine) -> list[NDArray[np.int64]]:
@@ -80,7 +84,7 @@ def _best_jump(
     if n < 4 * w:
         return -1, 0.0, w
     t = time_s[idx]
-    dt = float(np.median(np.diff(t)))
+    dt = median_of_finite(np.diff(t))
     k_all = np.arange(w, n - w + 1)
     contiguous = (t[k_all + w - 1] - t[k_all - w]) <= 1.5 * (2 * w - 1) * dt
     stat = np.zeros(n - 2 * w + 1)
@@ -91,7 +95,8 @@ def _best_jump(
         jump = (c[k + w] - c[k]) / w - (c[k] - c[k - w]) / w
         # Scale of the jump from the run itself (robust: a step moves ~2W of the
         # positions only), so that slow structure and correlated noise widen it.
-        scale = 1.4826 * float(np.median(np.abs(jump - np.median(jump))))
+        deviation = np.abs(jump - median_of_finite(jump))
+        scale = 1.4826 * median_of_finite(deviation, overwrite=True)
         scale = max(scale, _noise_mg(r) * math.sqrt(2.0 / w))
         if not scale > 0:
             continue

@@ -109,26 +109,30 @@ def knots(
     """Knots of an observable at ``fractions`` of its 5–95 % span; distinct, none near an end."""
     key = (inner, tuple(fractions))
     if key not in eng.knot_cache:
-        # Every set of knots of an observable reads its values sorted once.
-        if inner not in eng.sorted_cache:
-            eng.sorted_cache[inner] = np.sort(eng.basis(inner)[eng.w > 0])
-        eng.knot_cache[key] = _knots(eng.sorted_cache[inner], fractions)
+        # Every set of knots of an observable reads its used values and span once.
+        if inner not in eng.span_cache:
+            v = eng.basis(inner)[eng.w > 0]
+            span = None
+            if v.size >= 8 and np.all(np.isfinite(v)) and v.max() > v.min():
+                lo, hi = (float(x) for x in np.quantile(v, list(_RANGE)))
+                span = (lo, hi) if hi > lo else None
+            eng.span_cache[inner] = (v, span)
+        v, span = eng.span_cache[inner]
+        eng.knot_cache[key] = () if span is None else _knots(v, span, fractions)
     return eng.knot_cache[key]
 
 
-def _knots(v: NDArray[np.float64], fractions: Sequence[float]) -> tuple[float, ...]:
-    if v.size < 8 or not np.all(np.isfinite(v)) or v[-1] <= v[0]:
-        return ()
-    lo, hi = (float(x) for x in np.quantile(v, list(_RANGE)))
-    if not hi > lo:
-        return ()
+def _knots(
+    v: NDArray[np.float64], span: tuple[float, float], fractions: Sequence[float]
+) -> tuple[float, ...]:
+    lo, hi = span
     # Rounded to a hundredth of the span's decade: readable, and the same on reruns.
     step = 10.0 ** (math.floor(math.log10(hi - lo)) - 2)
     out: list[float] = []
     for q in fractions:
         k = round((lo + q * (hi - lo)) / step) * step
         k = float(f"{k:.6g}")
-        below = np.searchsorted(v, k, side="right") / v.size
+        below = np.count_nonzero(v <= k) / v.size
         if not _MIN_SIDE <= below <= 1 - _MIN_SIDE:
             continue
         if out and k <= out[-1]:

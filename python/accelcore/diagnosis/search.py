@@ -411,33 +411,47 @@ def confounding(
     found: dict[tuple[str, str], tuple[float, list[str]]] = {}
     w = eng.w
     moves = temperature_span_c(eng) >= MIN_TEMPERATURE_SPAN_C
-    for a in AXES:
-        a_i = AXES.index(a)
-        sig: dict[str, FloatArray] = {"drift": eng.basis(Elapsed())}
-        if moves:  # a temperature that does not move confounds nothing
-            sig["temperature (linear tempco)"] = eng.basis(TemperaturePower(1))
-            sig["offset_curvature"] = eng.basis(TemperaturePower(2))
-            sig["thermal_lag"] = eng.basis(LaggedTemperaturePower(_CONFOUND_TAU_S, 1)) - eng.basis(
-                TemperaturePower(1)
+    # Every axis' signatures, each column once (most are the same on every axis).
+    sig: dict[str, FloatArray] = {"drift": eng.basis(Elapsed())}
+    if moves:  # a temperature that does not move confounds nothing
+        sig["temperature (linear tempco)"] = eng.basis(TemperaturePower(1))
+        sig["offset_curvature"] = eng.basis(TemperaturePower(2))
+        sig["thermal_lag"] = eng.basis(LaggedTemperaturePower(_CONFOUND_TAU_S, 1)) - eng.basis(
+            TemperaturePower(1)
+        )
+    held = [b for b in AXES if eng.gravity_values[AXES.index(b)] >= 2]
+    for b in held:
+        if moves:
+            sig[f"sensitivity_curvature on {b}"] = (
+                eng.basis(TemperaturePower(2)) * eng.gravity[:, AXES.index(b)]
             )
-        if moves and eng.gravity_values[a_i] >= 2:
-            sig["sensitivity_curvature"] = eng.basis(TemperaturePower(2)) * eng.gravity[:, a_i]
-        for b in AXES:
-            if b != a and eng.gravity_values[AXES.index(b)] >= 2:
-                sig[f"misalignment (gravity on {b})"] = eng.gravity[:, AXES.index(b)].copy()
-        for e in extras:
-            sig[f"extra:{e}"] = eng.basis(Extra(e))
-        names = list(sig)
-        centred = {}
+        sig[f"misalignment (gravity on {b})"] = eng.gravity[:, AXES.index(b)]
+    for e in extras:
+        sig[f"extra:{e}"] = eng.basis(Extra(e))
+    # Weighted correlations of all of them from one product of the centred columns.
+    names = list(sig)
+    cols = np.column_stack([sig[k] for k in names])
+    cols = cols - (w @ cols) / w.sum()
+    cols *= np.sqrt(w)[:, None]
+    norms = np.sqrt(np.einsum("ij,ij->j", cols, cols))
+    live = norms > 0
+    gram = (cols.T @ cols) / np.where(live, norms, 1.0)[:, None] / np.where(live, norms, 1.0)
+    index = {k: i for i, k in enumerate(names)}
+    for a in AXES:
+        own: dict[str, str] = {}  # the signature's name on axis a -> its column
         for k in names:
-            v = sig[k] - float((w * sig[k]).sum() / w.sum())
-            nrm = math.sqrt(float((w * v * v).sum()))
-            if nrm > 0:
-                centred[k] = v / nrm
-        keys = sorted(centred, key=_rank)
+            if k.startswith("sensitivity_curvature on "):
+                if k.endswith(f" {a}"):
+                    own["sensitivity_curvature"] = k
+            elif k.startswith("misalignment (gravity on "):
+                if not k.endswith(f" {a})"):
+                    own[k] = k
+            else:
+                own[k] = k
+        keys = sorted((k for k in own if live[index[own[k]]]), key=_rank)
         for i in range(len(keys)):
             for j in range(i + 1, len(keys)):
-                r = float((w * centred[keys[i]] * centred[keys[j]]).sum())
+                r = float(gram[index[own[keys[i]]], index[own[keys[j]]]])
                 if abs(r) > threshold:
                     pair = (keys[i], keys[j])
                     prev = found.get(pair, (0.0, []))

@@ -47,7 +47,7 @@ from accelcore.errors import DataQualityWarning
 from accelcore.input.records import records
 from accelcore.input.session import Run, Session
 
-__all__ = ["QualityIssue", "check_session", "excluded_blocks"]
+__all__ = ["QualityIssue", "check_session", "excluded_blocks", "median_of_finite"]
 
 #: Robust standard deviations per unit of median absolute deviation (normal data).
 MAD_TO_SIGMA = 1.4826
@@ -291,17 +291,17 @@ def _robust_sigma(r: NDArray[np.float64]) -> float:
         return 0.0
     # Residuals and differences are exactly 0 at many blocks (a running median is one
     # of its window's values), so 0 is usually their median: checked by counting.
-    center = _median_of_finite(r, guess=0.0)
+    center = median_of_finite(r, guess=0.0)
     deviation = np.subtract(r, center)
     np.abs(deviation, out=deviation)
-    sigma = MAD_TO_SIGMA * _median_of_finite(deviation, overwrite=True)
+    sigma = MAD_TO_SIGMA * median_of_finite(deviation, overwrite=True)
     if sigma == 0.0:
         # The partition above reordered `deviation`; the mean is taken in input order.
         sigma = math.sqrt(math.pi / 2) * float(np.mean(np.abs(r - center)))
     return sigma
 
 
-def _median_of_finite(
+def median_of_finite(
     a: NDArray[np.float64], *, overwrite: bool = False, guess: float | None = None
 ) -> float:
     """``float(np.median(a))`` of a non-empty 1-D array without NaN, several times faster.
