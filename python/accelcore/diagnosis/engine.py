@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -55,7 +55,7 @@ from accelcore.model import (
 )
 from accelcore.result.calibration import AxisModel, Calibration, nominal_sensitivity
 
-from .fits import Fit
+from .fits import CV, Fit
 from .folds import choose_folds
 from .observables import leg_labels, rate_c_per_min
 from .windows import choose_windows
@@ -63,17 +63,6 @@ from .windows import choose_windows
 __all__ = ["CV", "Engine"]
 
 FloatArray = NDArray[np.float64]
-
-
-@dataclass
-class CV:
-    """Cross-validated fit of one axis model."""
-
-    terms: tuple[Term, ...]
-    sse_blocks: FloatArray  # held-out weighted SSE per block, mg²
-    sse_in: float  # in-sample weighted SSE, mg²
-    rms_out: float
-    rms_in: float
 
 
 class Engine:
@@ -295,6 +284,9 @@ class Engine:
         #: The weighted samples of each observable and their 5–95 % span (for its knots).
         self.span_cache: dict[Basis, tuple[FloatArray, tuple[float, float] | None]] = {}
         self._attempted: set[tuple[str, str]] = set()
+        #: Residuals of the models asked for last (each step, the events and the end
+        #: ask for the same ones).
+        self._residuals: dict[tuple[str, tuple[_Key, ...]], tuple[FloatArray, FloatArray]] = {}
         self._model_keys: tuple[_Key, ...] = ()
         # Catalogues of columns, their rows pushed once: (column index, folds) per lag,
         # or per observable of the generic family (("generic", name)).
@@ -562,10 +554,19 @@ class Engine:
         )
 
     def residuals(self, axis: str, terms: Sequence[Term]) -> tuple[FloatArray, FloatArray]:
-        """In-sample and held-out residual per sample, mg."""
-        fit = self.fit(axis, terms)
-        y = self.y[axis]
-        return y - fit.x @ fit.beta_in, self.heldout_residuals(y, fit)
+        """In-sample and held-out residual per sample, mg (read-only arrays, kept)."""
+        key = (axis, self._keys(axis, terms))
+        found = self._residuals.get(key)
+        if found is None:
+            fit = self.fit(axis, terms)
+            y = self.y[axis]
+            found = (y - fit.x @ fit.beta_in, self.heldout_residuals(y, fit))
+            for r in found:
+                r.flags.writeable = False
+            if len(self._residuals) >= 4 * len(AXES):
+                self._residuals.clear()
+            self._residuals[key] = found
+        return found
 
 
 #: A design column: a basis, alone (offset, ``None``) or times an axis' gravity (gain).

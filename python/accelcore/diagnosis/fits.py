@@ -1,5 +1,6 @@
 """Fits of the engine: the coefficients of one axis model, and the test oracle's solve.
 
+:class:`CV` holds the held-out and in-sample error of one axis model;
 :class:`Fit` holds the coefficients of the free terms of one axis model, in-sample
 and per held-out fold (:meth:`accelcore.diagnosis.engine.Engine.fit`). :func:`_solve`
 solves one accumulated problem, holding the columns the data cannot identify at
@@ -15,13 +16,25 @@ from numpy.typing import NDArray
 
 from accelcore.core import LeastSquares
 from accelcore.errors import SingularSystemError
+from accelcore.model import Term
 
-__all__ = ["Fit"]
+__all__ = ["CV", "Fit"]
 
 FloatArray = NDArray[np.float64]
 
 #: Column names of the accumulators: the column's index, so that a rank error maps back.
 _NAMES = [str(i) for i in range(64)]
+
+
+@dataclass
+class CV:
+    """Cross-validated fit of one axis model."""
+
+    terms: tuple[Term, ...]
+    sse_blocks: FloatArray  # held-out weighted SSE per block, mg²
+    sse_in: float  # in-sample weighted SSE, mg²
+    rms_out: float
+    rms_in: float
 
 
 @dataclass(frozen=True)
