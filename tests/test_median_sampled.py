@@ -1,6 +1,6 @@
 """The quality checks' median of many values, taken from a sorted sample, is ``np.median``.
 
-From :data:`accelcore.input.quality._SAMPLED_FROM` values on, ``median_of_finite``
+From :data:`accelcore.input.medians._SAMPLED_FROM` values on, ``median_of_finite``
 selects the middle among the values between two bounds read from a sample, and
 falls back to a partition of everything when the sample misplaces the middle;
 either way the result must be ``np.median``'s, bit for bit.
@@ -8,12 +8,19 @@ either way the result must be ``np.median``'s, bit for bit.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 from numpy.typing import NDArray
 
-from accelcore.input.quality import _SAMPLED_FROM, _middle_from_sample, median_of_finite
+from accelcore.input.medians import (
+    _SAMPLED_FROM,
+    _middle_from_sample,
+    median_of_finite,
+    nanmedian_columns,
+)
 from strategies import seeds
 
 FloatArray = NDArray[np.float64]
@@ -77,3 +84,20 @@ def test_a_misleading_sample_falls_back_to_the_partition() -> None:
     a[::step] = 1e3 + np.arange(a[::step].size)
     assert _middle_from_sample(a.copy(), n // 2, True) is None
     assert _bits(median_of_finite(a)) == _bits(float(np.median(a)))
+
+
+@given(
+    n=st.integers(1, 3 * _SAMPLED_FROM),
+    seed=seeds,
+    kind=st.sampled_from(_KINDS),
+    nan_fraction=st.sampled_from([0.0, 0.1, 1.0]),
+)
+def test_the_column_nanmedian_is_np_nanmedian(
+    n: int, seed: int, kind: str, nan_fraction: float
+) -> None:
+    a = np.column_stack([_values(kind, n, seed), _values(kind, n, seed + 1)])
+    a[np.random.default_rng(seed).random(n) < nan_fraction, 1] = np.nan
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # NumPy's all-NaN slice warning
+        want = np.nanmedian(a, axis=0)
+    assert nanmedian_columns(a).tobytes() == want.tobytes()

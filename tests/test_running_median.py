@@ -20,7 +20,8 @@ from numpy.typing import NDArray
 import accelcore
 from accelcore import reference
 from accelcore.core import running_median
-from accelcore.input.quality import _robust_sigma, _running_median, median_of_finite
+from accelcore.input.medians import median_of_finite
+from accelcore.input.quality import _robust_sigma, _running_median
 from strategies import seeds
 
 FloatArray = NDArray[np.float64]

@@ -33,7 +33,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore.input.quality import median_of_finite
+from accelcore.input.medians import median_of_finite
 from accelcore.model import AXES, Constant, RunStep, Term
 
 from .engine import Engine

@@ -44,10 +44,11 @@ from numpy.typing import NDArray
 from accelcore._accelcore import running_median, sliding_median
 from accelcore.constants import AXES
 from accelcore.errors import DataQualityWarning
+from accelcore.input.medians import median_of_finite
 from accelcore.input.records import records
 from accelcore.input.session import Run, Session
 
-__all__ = ["QualityIssue", "check_session", "excluded_blocks", "median_of_finite"]
+__all__ = ["QualityIssue", "check_session", "excluded_blocks"]
 
 #: Robust standard deviations per unit of median absolute deviation (normal data).
 MAD_TO_SIGMA = 1.4826
@@ -299,69 +300,6 @@ def _robust_sigma(r: NDArray[np.float64]) -> float:
         # The partition above reordered `deviation`; the mean is taken in input order.
         sigma = math.sqrt(math.pi / 2) * float(np.mean(np.abs(r - center)))
     return sigma
-
-
-def median_of_finite(
-    a: NDArray[np.float64], *, overwrite: bool = False, guess: float | None = None
-) -> float:
-    """``float(np.median(a))`` of a non-empty 1-D array without NaN, several times faster.
-
-    ``np.median`` partitions at two ranks (the middle and, for its NaN check, the
-    last), which NumPy's vectorised selection does not handle; one rank it does. The
-    result is bitwise the same: the middle value, or the mean of the two middle
-    values, summed from +0.0 as ``np.mean`` does (so a zero median is +0.0). With
-    ``overwrite`` the values of ``a`` are reordered in place instead of copied.
-
-    A ``guess`` is tried first, by counting the values below and equal to it: when
-    the middle rank(s) fall among the equal ones, the median is the guess and no
-    partition is needed (values that compare equal are bitwise equal, or both zero).
-    """
-    n = a.shape[0]
-    k = n // 2
-    if guess is not None:
-        below = int(np.count_nonzero(a < guess))
-        if below <= k - 1 + n % 2 and below + int(np.count_nonzero(a == guess)) > k:
-            if n % 2:
-                return float(0.0 + guess)
-            return float((0.0 + guess + guess) / 2)
-    if n >= _SAMPLED_FROM and (middle := _middle_from_sample(a, k, n % 2 == 0)) is not None:
-        part, k = middle, 1
-    elif overwrite:
-        a.partition(k)
-        part = a
-    else:
-        part = np.partition(a, k)
-    if n % 2:
-        return float(0.0 + part[k])
-    return float((0.0 + part[:k].max() + part[k]) / 2)
-
-
-#: From this many values on, medians are first sought by :func:`_middle_from_sample`
-#: (NumPy's selection takes 8–15 ns a value); it samples about ``_SAMPLE`` of them.
-_SAMPLED_FROM, _SAMPLE = 4096, 512
-
-
-def _middle_from_sample(a: NDArray[np.float64], k: int, even: bool) -> NDArray[np.float64] | None:
-    """Return order statistics ``k - 1`` (``k`` if not ``even``) and ``k`` of ``a``, or None.
-
-    Exact: the sample's middle value if counting shows it is the answer (ties), else
-    the partition of the values between two bounds read from the sorted sample, when
-    the counts show they hold both ranks; None (rare) leaves it to a full partition.
-    """
-    n, first = a.shape[0], k - 1 if even else k
-    sample = np.sort(a[:: n // _SAMPLE])
-    m = sample.shape[0]
-    at, margin = first * m // n, int(1.5 * math.sqrt(m)) + 2  # 3 sigma of a sampled rank
-    n_below = int(np.count_nonzero(a < sample[at]))
-    if n_below <= first and k < n_below + int(np.count_nonzero(a == sample[at])):
-        return sample[[at, at]]
-    lo, hi = sample[max(at - margin, 0)], sample[min(at + margin + 1, m - 1)]
-    n_below = int(np.count_nonzero(a < lo))
-    between = a[(a >= lo) & (a <= hi)]
-    if not n_below <= first < k + 1 <= n_below + between.shape[0]:
-        return None
-    between.partition((first - n_below, k - n_below))
-    return np.array([between[first - n_below], between[k - n_below]])
 
 
 def _check_outliers(
