@@ -41,7 +41,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore._accelcore import running_median, sliding_median
+from accelcore._accelcore import digest_bytes, running_median, sliding_median
 from accelcore.constants import AXES
 from accelcore.errors import DataQualityWarning
 from accelcore.input.medians import median_of_finite
@@ -49,6 +49,8 @@ from accelcore.input.records import records
 from accelcore.input.session import Run, Session
 
 __all__ = ["QualityIssue", "check_session", "excluded_blocks"]
+
+IntArray = NDArray[np.int64]
 
 #: Robust standard deviations per unit of median absolute deviation (normal data).
 MAD_TO_SIGMA = 1.4826
@@ -307,15 +309,10 @@ def _check_outliers(
 ) -> list[QualityIssue]:
     if y.shape[0] < 2 * window:
         return []
-    resid = y - _running_median(y, window)
-    sigma = _robust_sigma(resid)
-    if sigma == 0.0:
-        return []
-    bad = np.flatnonzero(np.abs(resid) > z_max * sigma)
+    bad, worst = _spikes(run, AXES.index(axis), window, z_max)
     if bad.size == 0:
         return []
     first = float(run.time_s[bad[0]])
-    worst = float(np.max(np.abs(resid[bad]))) / sigma  # a Python float: inf, not a warning
     return [
         QualityIssue(
             "outliers",
@@ -328,6 +325,35 @@ def _check_outliers(
             count=int(bad.size),
         )
     ]
+
+
+#: Spikes found per channel content (its digest), window and threshold: the quality
+#: check and the weights of every fit of a run ask for the same ones.
+_SPIKES: dict[tuple[str, int, float], tuple[IntArray, float]] = {}
+_SPIKES_KEPT = 256
+
+
+def _spikes(run: Run, c: int, window: int, z_max: float) -> tuple[IntArray, float]:
+    """Spikes of channel ``c``: blocks whose robust z exceeds ``z_max``, and the largest z.
+
+    The z-score is against a running median of ``window`` blocks; 0 when none.
+    """
+    y = np.ascontiguousarray(run.output[:, c], dtype=np.float64)
+    key = (digest_bytes(y.tobytes()), window, z_max)
+    found = _SPIKES.get(key)
+    if found is None:
+        resid = y - _running_median(y, window)
+        sigma = _robust_sigma(resid)
+        bad = np.flatnonzero(np.abs(resid) > z_max * sigma) if sigma > 0.0 else np.zeros(0, int)
+        # A Python float: inf, not a warning.
+        worst = float(np.max(np.abs(resid[bad]))) / sigma if bad.size else 0.0
+        bad = bad.astype(np.int64)
+        bad.flags.writeable = False
+        found = (bad, worst)
+        if len(_SPIKES) >= _SPIKES_KEPT:
+            _SPIKES.clear()
+        _SPIKES[key] = found
+    return found
 
 
 def _check_steps(
@@ -511,12 +537,8 @@ def excluded_blocks(
     spikes = np.zeros(n, dtype=bool)
     clipped = np.zeros(n, dtype=bool)
     if n >= 2 * outlier_window:
-        # One copy makes the three channels contiguous (the kernel would copy each).
-        for y in np.ascontiguousarray(run.output[:, :3].T):
-            resid = y - _running_median(y, outlier_window)
-            sigma = _robust_sigma(resid)
-            if sigma > 0.0:
-                spikes |= np.abs(resid) > outlier_z * sigma
+        for c in range(3):
+            spikes[_spikes(run, c, outlier_window, outlier_z)[0]] = True
     for issue in _check_clipping(run, clip_fraction, clip_min_samples, clip_min_blocks):
         c = _channel_names(run).index(issue.channel or "")
         stats = run.stats
