@@ -411,49 +411,42 @@ def confounding(
     found: dict[tuple[str, str], tuple[float, list[str]]] = {}
     w = eng.w
     moves = temperature_span_c(eng) >= MIN_TEMPERATURE_SPAN_C
-    # Every axis' signatures, each column once (most are the same on every axis).
-    sig: dict[str, FloatArray] = {"drift": eng.basis(Elapsed())}
+    # Every axis' signatures, each column once, with the axes it is a signature on.
+    sig: list[tuple[str, FloatArray, Sequence[str]]] = [("drift", eng.basis(Elapsed()), AXES)]
     if moves:  # a temperature that does not move confounds nothing
-        sig["temperature (linear tempco)"] = eng.basis(TemperaturePower(1))
-        sig["offset_curvature"] = eng.basis(TemperaturePower(2))
-        sig["thermal_lag"] = eng.basis(LaggedTemperaturePower(_CONFOUND_TAU_S, 1)) - eng.basis(
-            TemperaturePower(1)
-        )
-    held = [b for b in AXES if eng.gravity_values[AXES.index(b)] >= 2]
-    for b in held:
+        t1, t2 = eng.basis(TemperaturePower(1)), eng.basis(TemperaturePower(2))
+        lag = eng.basis(LaggedTemperaturePower(_CONFOUND_TAU_S, 1)) - t1
+        sig += [
+            ("temperature (linear tempco)", t1, AXES),
+            ("offset_curvature", t2, AXES),
+            ("thermal_lag", lag, AXES),
+        ]
+    for b_i, b in enumerate(AXES):
+        if eng.gravity_values[b_i] < 2:
+            continue
+        g = eng.gravity[:, b_i]
         if moves:
-            sig[f"sensitivity_curvature on {b}"] = (
-                eng.basis(TemperaturePower(2)) * eng.gravity[:, AXES.index(b)]
-            )
-        sig[f"misalignment (gravity on {b})"] = eng.gravity[:, AXES.index(b)]
-    for e in extras:
-        sig[f"extra:{e}"] = eng.basis(Extra(e))
+            sig.append(("sensitivity_curvature", t2 * g, (b,)))
+        sig.append((f"misalignment (gravity on {b})", g, [a for a in AXES if a != b]))
+    sig += [(f"extra:{e}", eng.basis(Extra(e)), AXES) for e in extras]
     # Weighted correlations of all of them from one product of the centred columns.
-    names = list(sig)
-    cols = np.column_stack([sig[k] for k in names])
+    cols = np.column_stack([col for _, col, _ in sig])
     cols = cols - (w @ cols) / w.sum()
     cols *= np.sqrt(w)[:, None]
     norms = np.sqrt(np.einsum("ij,ij->j", cols, cols))
     live = norms > 0
-    gram = (cols.T @ cols) / np.where(live, norms, 1.0)[:, None] / np.where(live, norms, 1.0)
-    index = {k: i for i, k in enumerate(names)}
+    scale = np.where(live, norms, 1.0)
+    gram = (cols.T @ cols) / scale[:, None] / scale
     for a in AXES:
-        own: dict[str, str] = {}  # the signature's name on axis a -> its column
-        for k in names:
-            if k.startswith("sensitivity_curvature on "):
-                if k.endswith(f" {a}"):
-                    own["sensitivity_curvature"] = k
-            elif k.startswith("misalignment (gravity on "):
-                if not k.endswith(f" {a})"):
-                    own[k] = k
-            else:
-                own[k] = k
-        keys = sorted((k for k in own if live[index[own[k]]]), key=_rank)
-        for i in range(len(keys)):
-            for j in range(i + 1, len(keys)):
-                r = float(gram[index[own[keys[i]]], index[own[keys[j]]]])
+        own = sorted(
+            ((name, j) for j, (name, _, axes) in enumerate(sig) if a in axes and live[j]),
+            key=lambda item: _rank(item[0]),
+        )
+        for i, (first, fi) in enumerate(own):
+            for second, sj in own[i + 1 :]:
+                r = float(gram[fi, sj])
                 if abs(r) > threshold:
-                    pair = (keys[i], keys[j])
+                    pair = (first, second)
                     prev = found.get(pair, (0.0, []))
                     found[pair] = (max(prev[0], abs(r)), [*prev[1], a])
     return [Confounded(p1, p2, r, tuple(axes)) for (p1, p2), (r, axes) in found.items()]

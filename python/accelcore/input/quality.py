@@ -155,7 +155,7 @@ def check_session(
             if len(run) == 0:
                 continue
             y = np.asarray(run.output[:, a], dtype=np.float64)
-            issues += _check_outliers(run, axis, y, outlier_z, outlier_window)
+            issues += _check_outliers(run, axis, outlier_z, outlier_window)
             issues += _check_steps(run, axis, y, step_z, step_window)
     if total_nonfinite:
         issues.append(
@@ -304,10 +304,8 @@ def _robust_sigma(r: NDArray[np.float64]) -> float:
     return sigma
 
 
-def _check_outliers(
-    run: Run, axis: str, y: NDArray[np.float64], z_max: float, window: int
-) -> list[QualityIssue]:
-    if y.shape[0] < 2 * window:
+def _check_outliers(run: Run, axis: str, z_max: float, window: int) -> list[QualityIssue]:
+    if len(run) < 2 * window:
         return []
     bad, worst = _spikes(run, AXES.index(axis), window, z_max)
     if bad.size == 0:
