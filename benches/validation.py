@@ -98,6 +98,7 @@ Expect = Literal["cut 2x", "cut 1.5x", "rise <= 5%"]
 LAG_TAU_S: Final = 90.0
 SENS_CURVATURE_PCT_PER_C2: Final = 1e-3
 DRIFT_MG_PER_H: Final = (7.0, -7.0, 10.0)
+NONLINEARITY_MG_PER_G2: Final = (4.0, -3.0, 5.0)
 SUPPLY_MG_PER_V: Final = (600.0, -500.0, 800.0)
 TEMPERATURE_STEP_MG: Final = (0.0, 0.0, 12.0)
 OUTPUT_STEP_MG: Final = 10.0
@@ -188,6 +189,11 @@ def _cases(run_s: float) -> tuple[ValidationCase, ...]:
             "misalignment",
             (se.Misalignment(),),
             ideal=lambda a: _with(a, *(Term("gain", "1", source=s) for s in AXES if s != a)),
+        ),
+        ValidationCase(
+            "nonlinearity (K2)",
+            (se.Nonlinearity(NONLINEARITY_MG_PER_G2),),
+            ideal=lambda a: _with(a, Term("offset", f"g_{a}^2")),
         ),
         ValidationCase(
             "drift",

@@ -30,6 +30,11 @@ code then asks the value what it is instead of splitting strings:
 ``step(RUN@t0)`` (:class:`RunStep`)
     1 in run ``RUN`` from ``t0`` seconds into it on, else 0 (the part knocked
     mid-run; a session event);
+``g_b^2`` (:class:`SquaredGravity`)
+    the square of the specific force on axis ``b``, g² (an offset in ``g_b^2`` is the
+    second-order nonlinearity of the output in the force, IEEE Std 1293's ``K2``
+    when ``b`` is the axis itself); read from the run's orientation when fitting, and
+    solved for with the force when compensating;
 ``hinge(k):B`` (:class:`Hinge`)
     ``max(B - k, 0)`` of one of the observables above (``dT^1``, ``dTdt``,
     ``elapsed_h``, ``extra:NAME``) at a knot ``k`` in that basis' units: with the
@@ -69,6 +74,7 @@ __all__ = [
     "Hinge",
     "LaggedTemperaturePower",
     "RunStep",
+    "SquaredGravity",
     "TemperaturePower",
     "TemperatureRate",
     "Term",
@@ -104,6 +110,9 @@ class Features:
     _lag_cache: dict[float, FloatArray] = field(default_factory=dict, repr=False)
     #: Label of the run (record) the samples come from, for session-event bases.
     run: str | None = None
+    #: Specific force on the axes, g, shape (n, 3) or (3,), for bases of the force
+    #: (:class:`SquaredGravity`); None when it is not known (a compensation solves for it).
+    gravity_g: FloatArray | None = None
 
     def __len__(self) -> int:
         return int(self.temperature_c.shape[0])
@@ -135,6 +144,10 @@ class Basis(ABC):
     #: True when the value at a sample depends on earlier samples or on the run's
     #: start (lag filters, dT/dt, elapsed time): compensation then carries state.
     stateful: ClassVar[bool] = False
+
+    #: True when the value depends on the specific force itself (known from the
+    #: orientation when fitting; solved for with it when compensating).
+    needs_gravity: ClassVar[bool] = False
 
     @property
     @abstractmethod
@@ -203,6 +216,9 @@ class Basis(ABC):
         m = _HINGE.match(text)
         if m:
             return Hinge(float(m.group(1)), Basis.parse(m.group(2)))
+        m = _SQUARE.match(text)
+        if m:
+            return SquaredGravity(m.group(1))
         if text.startswith("extra:") and len(text) > len("extra:"):
             return Extra(text[len("extra:") :])
         raise ParameterError(f"unknown basis {text!r}")
@@ -213,6 +229,7 @@ _LAG = re.compile(r"^lag\(([0-9.eE+-]+)\):dT\^([1-9])$")
 _HINGE = re.compile(r"^hinge\(([0-9.eE+-]+)\):(.+)$")
 _DECAY = re.compile(r"^decay\(([0-9.eE+-]+)\)$")
 _STEP = re.compile(r"^step\((.+)@([0-9.eE+-]+)\)$")
+_SQUARE = re.compile(r"^g_([xyz])\^2$")
 
 
 @dataclass(frozen=True)
@@ -442,6 +459,47 @@ class RunStep(Basis):
         return (features._need_time(self.name) >= self.at_s).astype(np.float64)
 
 
+@dataclass(frozen=True)
+class SquaredGravity(Basis):
+    """``g_b^2``: the square of the specific force on axis ``b``, g².
+
+    As an offset term of axis ``a`` it is the output's second-order nonlinearity in
+    the force (``b == a``: IEEE Std 1293's ``K2``, a scale factor that differs
+    between +1 g and -1 g) or its response to the square of the force across
+    (``b != a``). Six orientations see ``g_b`` at -1, 0 and +1 g, so the offset,
+    the gain and ``g_b^2`` are told apart. Fitting reads the force from the run's
+    orientation (:func:`design_columns`); :meth:`evaluate` reads
+    :attr:`Features.gravity_g`, which compensation fills with its estimate of the
+    force and refines (:class:`accelcore.result.compensator.Compensator`).
+    """
+
+    axis: str
+
+    needs_gravity: ClassVar[bool] = True
+
+    def __post_init__(self) -> None:
+        if self.axis not in AXES:
+            raise ParameterError(f"g_b^2 needs an axis x, y or z, got {self.axis!r}")
+
+    @property
+    def name(self) -> str:  # noqa: D102
+        return f"g_{self.axis}^2"
+
+    def at_gravity(self, gravity_g: FloatArray, n: int) -> FloatArray:
+        """Value at ``n`` samples of specific force ``gravity_g`` (g, shape (3,) or (n, 3))."""
+        g = np.asarray(gravity_g, dtype=np.float64)[..., AXES.index(self.axis)]
+        return np.broadcast_to(g * g, (n,)).astype(np.float64)
+
+    def evaluate(  # noqa: D102
+        self, features: Features, references: Mapping[str, float] | None = None
+    ) -> FloatArray:
+        if features.gravity_g is None:
+            raise ParameterError(
+                f"the model term basis {self.name!r} needs the specific force (gravity_g)"
+            )
+        return self.at_gravity(features.gravity_g, len(features))
+
+
 # ---------------------------------------------------------------------- terms
 @dataclass(frozen=True)
 class Term:
@@ -580,6 +638,11 @@ def design_columns(
     cache: dict[Basis, FloatArray] = {}
     for j, term in enumerate(terms):
         if term.basis not in cache:
-            cache[term.basis] = term.basis.evaluate(features, references)
+            basis = term.basis
+            if isinstance(basis, SquaredGravity):
+                # The force of the stretch, not an estimate the features may carry.
+                cache[basis] = basis.at_gravity(gravity_g, n)
+            else:
+                cache[basis] = basis.evaluate(features, references)
         out[:, j] = term.column(cache[term.basis], gravity_g)
     return out

@@ -77,8 +77,12 @@ class Engine:
         block_s: float,
         steady_c_per_min: float,
         max_order: int = 5,
+        corrections: Sequence[FloatArray] | None = None,
     ) -> None:
+        # ``corrections``: per part (in the order parts are cut), what to take off
+        # the output first (session events fitted on an earlier pass), session units.
         self.session = session
+        self.folds_asked, self.block_s, self.steady_c_per_min = folds, block_s, steady_c_per_min
         # Contiguous pieces of one log are one record: folds never follow file cuts.
         self.records = records(session)
         # A name of each record that does not depend on file names: its orientation,
@@ -97,7 +101,8 @@ class Engine:
         window = None if not np.all(np.isfinite(base.window_c)) else base.window_c
         self.references = dict(base.references)
         feats: list[Features] = []
-        grav, out, wts, run_idx = [], [], [], []
+        grav, wts, run_idx = [], [], []
+        out: list[FloatArray] = []
         part_run: list[int] = []
         part_leg: list[int] = []
         leg_kinds: dict[tuple[int, int], str] = {}
@@ -131,7 +136,8 @@ class Engine:
                 feats.append(CutFeatures.cut(whole, keep))
                 gather.append(offset + np.flatnonzero(keep))
                 grav.append(run.gravity_g)
-                out.append(run.output[keep])
+                cut = run.output[keep]
+                out.append(cut if corrections is None else cut - corrections[len(out)])
                 wts.append(weight[keep])
                 run_idx.append(i)
                 part_run.append(i)

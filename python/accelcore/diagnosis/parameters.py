@@ -25,6 +25,7 @@ from accelcore.model import (
     Hinge,
     LaggedTemperaturePower,
     RunStep,
+    SquaredGravity,
     TemperatureRate,
 )
 from accelcore.result.calibration import AxisModel, nominal_sensitivity
@@ -86,9 +87,14 @@ def added_parameters(
                     unit = f"mg/{per}"
                 elif isinstance(t.basis, Elapsed):
                     unit = "mg/h"
+                elif isinstance(t.basis, SquaredGravity):
+                    unit = "mg/g²"
                 else:
                     unit = f"mg/°C^{order}" if order is not None else "mg/unit"
                 factor = 1000.0 / s
+            elif t.source == a and isinstance(t.basis, Elapsed):
+                unit = "%/h"
+                factor = 100.0 / s
             elif t.source == a:
                 unit = f"%/{per}" if per is not None else f"%/°C^{order or ''}"
                 factor = 100.0 / s

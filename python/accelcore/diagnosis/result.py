@@ -313,6 +313,7 @@ class Diagnosis:
             "thermal_lag": "dtemp_dt_c_per_min",
             "drift": "elapsed_s",
             "misalignment": "run_index",
+            "nonlinearity": "run_index",
         }.get(last, "elapsed_s")
 
 

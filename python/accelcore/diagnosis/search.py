@@ -109,8 +109,18 @@ def variants(
         sources = tuple(b for b in AXES if b != axis and eng.gravity_values[AXES.index(b)] >= 2)
         if sources:
             out = [(family, "from " + "+".join(sources), replace(spec, cross=sources))]
-    elif family == "drift" and not spec.drift:
-        out = [(family, "linear", replace(spec, drift=True))]
+    elif family == "nonlinearity" and axis not in spec.squares and own_values >= 3:
+        # The axis' own K2: g_a^2 beside the offset and the sensitivity needs three
+        # values of g_a (-1, 0, +1 g). Not g_b^2 of another axis: with one run per
+        # orientation, a run tilted about an axis is exactly a cross-axis gain plus
+        # a g_b^2 term of its pair, so a part property would take a session event.
+        out = [(family, f"g_{axis}^2", replace(spec, squares=(*spec.squares, axis)))]
+    elif family == "drift":
+        # Linear in the time since the run's start: the offset, or the sensitivity.
+        if not spec.drift:
+            out.append((family, "linear", replace(spec, drift=True)))
+        if not spec.gain_drift and own_values >= 2:
+            out.append((family, "sensitivity, linear", replace(spec, gain_drift=True)))
     elif family == "extra":
         out = [
             (f"extra:{e}", e, replace(spec, extras=(*spec.extras, e)))

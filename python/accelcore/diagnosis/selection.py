@@ -242,6 +242,11 @@ class _Selection:
         if not lines:
             return
         self.specs = specs
+        self.record_events()
+
+    def record_events(self) -> None:
+        """Fill :attr:`session_events` from the fit of the current specs (their run events)."""
+        self.session_events = []
         models, _, _ = fit_models(self.eng, self.specs)
         for a in AXES:
             m = models[a]
@@ -466,6 +471,8 @@ def diagnose(
     selection.run(max_steps)
     if "run_events" in tried and eng.n_folds >= 1:
         selection.add_run_events()
+        if selection.session_events:
+            selection, eng = _again_with_events(eng, specs_at_start, selection, rules, max_steps)
     added = [s.effect for s in selection.steps[1:]]
     if any(spec.cross for spec in specs_at_start.values()):
         added.append("misalignment")  # the base model holds the cross-axis gain
@@ -505,6 +512,57 @@ def diagnose(
         session_events=tuple(selection.session_events),
         _engine=eng,
     )
+
+
+def _again_with_events(
+    eng: Engine,
+    start: Mapping[str, Spec],
+    first: _Selection,
+    rules: _Rules,
+    max_steps: int,
+) -> tuple[_Selection, Engine]:
+    """Choose the part's effects again on the output less the run events found.
+
+    The events are found on the residual of the effects chosen without them, so that
+    a smooth effect is not taken for one; an effect chosen then may itself have been
+    standing in for an event (a term that fits a run's step or level in part). The
+    events, fitted beside the chosen effects on every sample, are taken off the
+    output, and the effects are chosen again from the start on what is left. (Held
+    as free terms in the held-out fits instead, a step late in a run would be a free
+    offset between folds.) The events' figures stay those of the first fit.
+    """
+    models, _, _ = fit_models(eng, first.specs)
+    corrections = []
+    for f in eng.data.features:
+        c = np.zeros((len(f), len(AXES)))
+        for i, a in enumerate(AXES):
+            m = models[a]
+            for t, coef in zip(m.terms, m.coefficients, strict=True):
+                if is_event(t.effect) and isinstance(t.basis, RunStep) and coef != 0.0:
+                    c[:, i] += coef * t.basis.evaluate(f)
+        corrections.append(c)
+    again_eng = Engine(
+        eng.session,
+        eng.base,
+        folds=eng.folds_asked,
+        block_s=eng.block_s,
+        steady_c_per_min=eng.steady_c_per_min,
+        max_order=eng.max_order,
+        corrections=corrections,
+    )
+    again = _Selection(again_eng, dict(start), rules)
+    again.run(max_steps)
+    again.session_events = first.session_events
+    before = [s.effect for s in first.steps[1:]]
+    after = [s.effect for s in again.steps[1:]]
+    again.notes = first.notes + again.notes
+    if before != after:
+        again.notes.append(
+            "effects chosen again on the output less the session events: "
+            f"{', '.join(after) or 'none'} (before the events were known: "
+            f"{', '.join(before) or 'none'})"
+        )
+    return again, again_eng
 
 
 def _explained(quality: Sequence[QualityIssue]) -> list[str]:

@@ -18,6 +18,7 @@ from accelcore.model import (
     Extra,
     Hinge,
     LaggedTemperaturePower,
+    SquaredGravity,
     TemperaturePower,
     TemperatureRate,
     Term,
@@ -31,6 +32,7 @@ FAMILIES = (
     "sensitivity_curvature",
     "thermal_lag",
     "misalignment",
+    "nonlinearity",
     "drift",
     "extra",
     "smooth",
@@ -62,8 +64,14 @@ class Spec:
         Highest temperature power of the offset and of the own-axis gain.
     cross : tuple of str
         Axes whose gravity enters as cross-axis gain (misalignment).
+    squares : tuple of str
+        Axes whose squared gravity enters the offset (``g_b^2``: the output's
+        second-order nonlinearity in the force, family ``nonlinearity``).
     drift : bool
         Offset linear in elapsed time.
+    gain_drift : bool
+        Own-axis sensitivity linear in elapsed time (family ``drift``, variant
+        ``sensitivity``).
     extras : tuple of str
         Extra columns entering as linear offsets.
     generic : tuple of Term
@@ -81,7 +89,9 @@ class Spec:
     offset_order: int = 1
     gain_order: int = 1
     cross: tuple[str, ...] = ()
+    squares: tuple[str, ...] = ()
     drift: bool = False
+    gain_drift: bool = False
     extras: tuple[str, ...] = ()
     generic: tuple[Term, ...] = ()
     events: tuple[Term, ...] = ()
@@ -104,8 +114,11 @@ class Spec:
             eff = "base" if k == 1 else "sensitivity_curvature"
             out.append(Term("gain", self.temp_basis(k), source=axis, effect=eff))
         out += [Term("gain", "1", source=b, effect="misalignment") for b in self.cross]
+        out += [Term("offset", SquaredGravity(b), effect="nonlinearity") for b in self.squares]
         if self.drift:
             out.append(Term("offset", Elapsed(), effect="drift"))
+        if self.gain_drift:
+            out.append(Term("gain", Elapsed(), source=axis, effect="drift"))
         out += [Term("offset", Extra(e), effect="extra") for e in self.extras]
         out += self.generic
         out += self.events
@@ -165,6 +178,10 @@ def spec_from_terms(axis: str, terms: Sequence[Term]) -> Spec | None:
                 return None
         elif isinstance(basis, Elapsed) and t.kind == "offset":
             spec = replace(spec, drift=True)
+        elif isinstance(basis, Elapsed) and t.source == axis:
+            spec = replace(spec, gain_drift=True)
+        elif isinstance(basis, SquaredGravity) and t.kind == "offset":
+            spec = replace(spec, squares=(*spec.squares, basis.axis))
         elif isinstance(basis, Extra) and t.kind == "offset":
             spec = replace(spec, extras=(*spec.extras, basis.column))
         else:
@@ -185,6 +202,8 @@ def _generic(term: Term, axis: str) -> bool:
         return True
     if isinstance(b, TemperatureRate):
         return True
+    if term.kind == "gain" and isinstance(b, Elapsed) and term.source == axis:
+        return term.effect != "drift"  # the drift family's sensitivity variant
     if term.kind == "gain" and isinstance(b, (Elapsed, Extra)):
         return True
     return term.kind == "gain" and term.source != axis and b == TemperaturePower(1)

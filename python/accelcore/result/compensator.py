@@ -11,9 +11,16 @@ from numpy.typing import ArrayLike, NDArray
 from accelcore._accelcore import compensate as _compensate
 from accelcore._accelcore import first_order_lag
 from accelcore.errors import ParameterError, TemperatureRangeWarning
-from accelcore.model import Basis, Features, Hinge, TemperatureRate
+from accelcore.model import Basis, Features, Hinge, SquaredGravity, TemperatureRate
 
 __all__ = ["Compensator", "needs_temperature"]
+
+#: Most passes of the fixed point that solves a model with terms in the force (g_b^2).
+MAX_FORCE_PASSES = 20
+
+#: The force has settled when no sample moves by more than this between passes, g
+#: (1e-12 g: a few ulps of 1 g, far below any sensor's resolution).
+FORCE_TOLERANCE_G = 1e-12
 
 
 def needs_temperature(basis: Basis) -> bool:
@@ -132,11 +139,28 @@ class Compensator:
         )
         feats.carried = self._carried
         n = raw_a.shape[0]
+        forced = [(j, b) for j, b in enumerate(self._bases) if isinstance(b, SquaredGravity)]
+        # Bases of the force itself (g_b^2) are first read at 0 g; the force solved
+        # with them is then fed back until it settles (a fixed point: the terms are
+        # small beside the sensitivity, so each pass shrinks the error by their ratio).
+        # Each sample iterates until it settles itself, so chunks do not matter.
+        feats.gravity_g = np.zeros((n, 3))
         if self._bases:
             basis = np.column_stack([b.evaluate(feats, self._references) for b in self._bases])
         else:
             basis = np.zeros((n, 0))
         g = _compensate(raw_a, np.ascontiguousarray(basis), self._offset, self._gain)
+        active = np.arange(n) if forced else np.zeros(0, dtype=np.intp)
+        for _ in range(MAX_FORCE_PASSES):
+            if active.size == 0:
+                break
+            rows = basis[active]
+            for j, b in forced:
+                rows[:, j] = b.at_gravity(g[active], active.size)
+            g_next = _compensate(raw_a[active], rows, self._offset, self._gain)
+            moved = np.max(np.abs(g_next - g[active]), axis=1)
+            g[active] = g_next
+            active = active[~(moved <= FORCE_TOLERANCE_G)]
         if n and rel is not None:
             for tau, y in feats._lag_cache.items():
                 self._carried[tau] = (float(rel[-1]), float(temp[-1]), float(y[-1]))

@@ -11,6 +11,8 @@ Effects of the diagnosis' catalogue:
 - :class:`SensitivityCurvature`: sensitivity quadratic in die temperature;
 - :class:`ThermalLag`: the die trails the chamber by a first-order lag;
 - :class:`Misalignment`: small-angle 3x3 misalignment / cross-axis sensitivity;
+- :class:`Nonlinearity`: output quadratic in the specific force along the axis
+  (IEEE Std 1293's ``K2``: the +1 g and -1 g readings differ beyond the offset);
 - :class:`Drift`: offset drifting linearly with time since the run's start;
 - :class:`SupplySensitivity`: offset proportional to the supply voltage's
   deviation (its ``supply_v`` column is added by :func:`attach_extra_columns`).
@@ -47,6 +49,7 @@ __all__ = [
     "CompressorCycle",
     "Drift",
     "Misalignment",
+    "Nonlinearity",
     "OffsetCurvature",
     "OutputStep",
     "RunTilt",
@@ -210,6 +213,37 @@ class Misalignment:
     def apply(self, state: RunState, rng: np.random.Generator) -> None:
         """Rotate ``state.specific_force_g`` into the misaligned sensing axes."""
         state.specific_force_g = state.specific_force_g @ self.matrix().T
+
+
+@dataclass(frozen=True)
+class Nonlinearity:
+    """Second-order nonlinearity: ``K2 g_a^2`` mg on each axis ``a``, ``g_a`` its specific force.
+
+    A scale factor that differs between +1 g and -1 g (IEEE Std 1293's ``K2``);
+    datasheets bound the nonlinearity at 0.2-0.5 % of full scale.
+
+    Parameters
+    ----------
+    mg_per_g2 : float or 3 floats
+        ``K2`` per axis, mg/g².
+    """
+
+    mg_per_g2: float | tuple[float, float, float] = (4.0, -3.0, 5.0)
+
+    @property
+    def name(self) -> str:
+        """``"nonlinearity"``."""
+        return "nonlinearity"
+
+    @property
+    def stage(self) -> Stage:
+        """``"response"``."""
+        return "response"
+
+    def apply(self, state: RunState, rng: np.random.Generator) -> None:
+        """Add ``K2 g_a^2`` to ``state.output``."""
+        mg = _vec3(self.mg_per_g2) * state.specific_force_g**2
+        state.output = state.output + _mg_to_units(state, mg)
 
 
 @dataclass(frozen=True)
