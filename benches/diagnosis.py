@@ -6,7 +6,7 @@ first-order thermal lag, so the lag search finds something. ``diagnose`` is time
 with 1, 2, 4 and all 6 candidate families (each set holds ``thermal_lag``), and
 with a narrower ``tau_range_s``. The cost is counted in cross-validated fits
 (``Engine.cv``: one per candidate model, each solving once per held-out fold and
-once in-sample with the core's Givens least squares: a subset query of a
+once in-sample with the core's QR least squares: a subset query of a
 catalogue whose rows were pushed once, or, for a lag-search trial, one push of
 its own rows into blocked factors); the counts and the time spent inside the lag
 search come from one extra instrumented run per row, never the timed ones.

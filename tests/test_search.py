@@ -34,7 +34,7 @@ from test_diagnosis import make_session
 
 FloatArray = NDArray[np.float64]
 
-#: Scores of the core (Givens QR per block, factors merged) and of the reference
+#: Scores of the core (QR per block, factors merged) and of the reference
 #: (rows refitted with NumPy's SVD least squares, whose accuracy is the *unscaled*
 #: condition number times eps) on the same trial. Trials are compared where every
 #: fold's weighted training design has a condition number below MAX_CONDITION (a

@@ -247,7 +247,7 @@ class LstsqSolution:
 
 @final
 class LeastSquares:
-    """Incremental weighted least squares by Givens rotations.
+    """Incremental weighted least squares by orthogonal (QR) updates.
 
     Parameters
     ----------
@@ -260,7 +260,11 @@ class LeastSquares:
     -----
     The state is the triangular factor ``R`` of the weighted design, ``Qᵀy`` and the
     residual sum of squares, so memory does not grow with the number of rows and
-    :meth:`merge` is exact algebra. Non-finite input raises NonFiniteError.
+    :meth:`merge` is exact algebra. Rows are brought in by Givens rotations up to 4
+    columns, and from 5 columns on by Householder reflections of blocks of 64 rows
+    (a partial block is carried to the next push, so how rows are cut into pushes
+    changes no bit of the result). Never normal equations. Non-finite input raises
+    NonFiniteError.
     """
 
     def __new__(cls, n_columns: int, *, column_names: list[str] | None = None) -> LeastSquares: ...
@@ -367,7 +371,7 @@ class BlockedLeastSquares:
     """Per-block least-squares factors; the held-out error of any folds by merging them.
 
     Rows are pushed once with their block; :meth:`cross_validate` then fits the model
-    without each fold by merging the other blocks' factors (Givens QR, exact algebra,
+    without each fold by merging the other blocks' factors (QR, exact algebra,
     never normal equations) and scores each block from its own factor
     (``||R β - z||² + rss``), without visiting a row again. Push the wide design of
     many candidate models (several responses when they share it) once, fix the folds

@@ -7,7 +7,8 @@ result of one pass over ``a``'s input followed by ``b``'s.
 
 - :class:`Decimator`: time-aligned block means (20 Hz to 2 Hz by default).
 - :class:`TemperatureBinner`: per-temperature-bin count, mean and variance.
-- :class:`LeastSquares`: incremental weighted least squares (Givens QR).
+- :class:`LeastSquares`: incremental weighted least squares (QR: Givens rotations,
+  blocked Householder reflections from 5 columns on).
 - :class:`BlockedLeastSquares`: one such factor per block of samples; the held-out
   error of any fold assignment by merging factors (the diagnosis' engine);
   :class:`FoldedLeastSquares`, its folds fixed, cross-validates any subset of columns.

@@ -22,7 +22,7 @@ greedily by *held-out* error only:
 ``extra:NAME``
     offset linear in an extra logged column.
 
-Every fit, held-out or not, is the core's Givens least squares
+Every fit, held-out or not, is the core's QR least squares
 (:class:`accelcore.core.LeastSquares`); errors are per axis, linearised: the output
 residual divided by the axis' sensitivity, in mg. After the last step a generic check
 bins the residual by every observable and reports the structure no added term explains.

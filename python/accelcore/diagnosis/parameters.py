@@ -1,7 +1,7 @@
 """Final fits of the chosen models and their added parameters in readable units.
 
 :func:`fit_models` fits each axis' chosen terms with
-:func:`accelcore.fitting.calibrate.fit_axis` (the core's Givens least squares, with
+:func:`accelcore.fitting.calibrate.fit_axis` (the core's QR least squares, with
 standard errors); :func:`added_parameters` reads off the parameters a family added,
 in mg, %, degrees or seconds.
 """

@@ -1,7 +1,7 @@
 """Fitting room: ``calibrate`` turns a session into a calibration.
 
 Two methods: the paper's (bins and line fits) and the joint weighted least-squares
-fit over every decimated sample, in the core's Givens QR (:class:`accelcore.core.LeastSquares`).
+fit over every decimated sample, in the core's QR (:class:`accelcore.core.LeastSquares`).
 :mod:`.calibrate` holds both; :mod:`.stacking` lays a session out for the joint fit
 (the samples in the window, their features and block weights).
 

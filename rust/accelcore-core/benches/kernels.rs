@@ -3,7 +3,8 @@
 //! Plain timing (no criterion, so the workspace builds quickly): `cargo bench
 //! -p accelcore-core --bench kernels -- --nocapture` prints one line per
 //! kernel (median of 5 runs over 1e7 samples of time, temperature and 3 channels;
-//! `ACCELCORE_BENCH_N` and `ACCELCORE_BENCH_REPEAT` change both).
+//! `ACCELCORE_BENCH_N` and `ACCELCORE_BENCH_REPEAT` change both). `lstsq12`, a
+//! weighted 12-column fit, uses at most 1e6 of the rows.
 #![allow(clippy::print_stderr)]
 use accelcore_core::{
     read_run, BinnerConfig, CsvFormat, Decimator, DecimatorConfig, LeastSquares, TemperatureBinner,
@@ -123,6 +124,36 @@ fn throughput() {
                 black_box(ls.finish().unwrap());
             }),
         );
+    }
+    if want("lstsq12") {
+        // A weighted fit of 12 columns (powers of temperature, then products with a
+        // second regressor), as the diagnosis's wide designs; one row in 17 of weight 0.
+        // At most 1e6 rows (a 1e7-row design would take 1 GB); the rate is per row.
+        let rows = t.len().min(1_000_000);
+        let design = Array2::from_shape_fn((rows, 12), |(i, j)| {
+            let u = (temp[i] - 20.0) / 40.0;
+            let v = ch[(i, 1)] - 0.05;
+            if j < 6 {
+                u.powi(j as i32)
+            } else {
+                v * u.powi(j as i32 - 6)
+            }
+        });
+        let w: Vec<f64> = (0..rows)
+            .map(|i| {
+                if i % 17 == 0 {
+                    0.0
+                } else {
+                    1.0 + (i % 5) as f64
+                }
+            })
+            .collect();
+        let rate = median_rate(|| {
+            let mut ls = LeastSquares::new(12, None).unwrap();
+            ls.push(design.view(), &y[..rows], Some(&w)).unwrap();
+            black_box(ls.finish().unwrap());
+        });
+        report("lstsq12", rate * rows as f64 / t.len() as f64);
     }
     if want("read") {
         // A 20 Hz log as `accelcore.simulate` writes it (time to 0.01 s, temperature

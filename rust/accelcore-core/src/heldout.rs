@@ -304,8 +304,14 @@ impl BlockedLeastSquares {
             .max()
             .unwrap_or(0);
         let empty = LeastSquares::with_responses(self.n_columns, self.n_responses, None)?;
+        // Rows still staged for a block update go in now, once: every query
+        // then reads settled factors.
+        let mut blocks = self.blocks.clone();
+        for b in &mut blocks {
+            b.settle();
+        }
         let mut folds = vec![empty.clone(); n_folds];
-        for (b, &f) in self.blocks.iter().zip(block_fold) {
+        for (b, &f) in blocks.iter().zip(block_fold) {
             folds[f as usize].merge(b)?;
         }
         let mut all = empty.clone();
@@ -329,7 +335,7 @@ impl BlockedLeastSquares {
         Ok(FoldedLeastSquares {
             n_columns: self.n_columns,
             n_responses: self.n_responses,
-            blocks: self.blocks.clone(),
+            blocks,
             block_fold: block_fold.to_vec(),
             training,
             all,

@@ -10,7 +10,8 @@
 //!
 //! - [`Decimator`]: time-aligned block means (20 Hz to 2 Hz by default).
 //! - [`TemperatureBinner`]: per-temperature-bin count, mean and variance.
-//! - [`LeastSquares`]: incremental weighted least squares by Givens QR.
+//! - [`LeastSquares`]: incremental weighted least squares by QR (Givens
+//!   rotations, or blocked Householder reflections from 5 columns on).
 //! - [`BlockedLeastSquares`]: per-block factors; held-out error of any folds by merging them.
 //! - [`read_run`]: a streaming reader of session logs straight into a [`Decimator`].
 //! - [`RunTally`]: what a run's raw rows looked like (rows, non-finite rows, time

@@ -31,7 +31,7 @@
 //! score is that sum only, so here the blocks of one fold are pushed as one block
 //! (the same algebra: a fold's held-out error is the sum of its blocks'), which
 //! spares most of the factors and their merges. So a trial gives the engine's score
-//! to rounding (a few eps relative on well-posed designs: the rows are rotated in the
+//! to rounding (a few eps relative on well-posed designs: the rows are brought in in the
 //! same order, into fewer factors), with its columns the same floats, up to the
 //! exponential of a decay (NumPy's vectorised `exp` and the C library's may differ in
 //! the last bit). The window means of steps 1–2 depend on `tau` only, not on the
