@@ -43,6 +43,7 @@
 //! significant digits as Python's `float(f"{tau:.3g}")` does (trials of one rounded
 //! value are scored once), a log grid, then parabolic steps in `log tau` with
 //! golden-section steps where a parabola leaves the bracket.
+//!
 //! [`TimeConstantSearch::search_many`] runs the searches of several models on up to
 //! `threads` threads, each search the same trials and scores as alone: a trial is
 //! evaluated from `&self` and its own scratch (the lagged temperature), and the kept
