@@ -9,11 +9,14 @@ with a narrower ``tau_range_s``. The cost is counted in cross-validated fits
 once in-sample with the core's QR least squares: a subset query of a
 catalogue whose rows were pushed once, or, for a lag-search trial, one push of
 its own rows into blocked factors); the counts and the time spent inside the lag
-search come from one extra instrumented run per row, never the timed ones.
+search come from one extra instrumented run per row, never the timed ones. Case
+(d2) times the default diagnosis with the time-constant searches of the axes run
+together on one thread and on every core (``search_threads``).
 """
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -63,11 +66,21 @@ class Counts:
 
 @contextmanager
 def instrumented() -> Iterator[Counts]:
-    """Count ``Engine.cv`` calls and time ``search_tau`` (module globals, restored after)."""
+    """Count ``Engine.cv`` calls and time the time-constant searches (``search_1d``: a
+    lag's, through ``search_tau``, or a warm-up's; and ``search_many``, the axes'
+    searches run together: module globals, restored after)."""
     counts = Counts()
     engine: Any = diagnosis_engine.Engine
-    cv, search = engine.cv, diagnosis_search.search_tau
+    cv, search = engine.cv, diagnosis_search.search_1d
+    together = diagnosis_search.search_many
     in_search = [False]
+
+    def timed_together(*args: Any, **kwargs: Any) -> Any:
+        w0 = time.perf_counter()
+        try:
+            return together(*args, **kwargs)
+        finally:
+            counts.lag_wall_s += time.perf_counter() - w0
 
     def counted_cv(self: Any, *args: Any, **kwargs: Any) -> Any:
         counts.cv_fits += 1
@@ -86,12 +99,14 @@ def instrumented() -> Iterator[Counts]:
             in_search[0] = False
 
     engine.cv = counted_cv
-    setattr(diagnosis_search, "search_tau", timed_search)  # noqa: B010 - patched on purpose
+    setattr(diagnosis_search, "search_1d", timed_search)  # noqa: B010 - patched on purpose
+    setattr(diagnosis_search, "search_many", timed_together)  # noqa: B010
     try:
         yield counts
     finally:
         engine.cv = cv
-        setattr(diagnosis_search, "search_tau", search)  # noqa: B010
+        setattr(diagnosis_search, "search_1d", search)  # noqa: B010
+        setattr(diagnosis_search, "search_many", together)  # noqa: B010
 
 
 def _found(d: diagnosis.Diagnosis) -> str:
@@ -139,14 +154,14 @@ def run(ctx: Context) -> list[Table]:
         row.baseline = configs[0][0]
         row.note = (
             f"{counts.cv_fits} CV fits ({len(found.candidates)} candidates), "
-            f"{counts.lag_searches} lag searches = {counts.lag_fits} fits, "
+            f"{counts.lag_searches} tau searches (lag, warm-up) = {counts.lag_fits} fits, "
             f"{100 * counts.lag_wall_s / counts.wall_s:.0f}% of the time; "
             f"added {_found(found)}"
         )
         if counts.lag_searches:
             lag_share.append(
                 f"{name}: {counts.lag_wall_s / counts.lag_searches:.3f} s and "
-                f"{counts.lag_fits / counts.lag_searches:.1f} fits per lag search"
+                f"{counts.lag_fits / counts.lag_searches:.1f} fits per tau search"
             )
         table.rows.append(row)
     table.notes.append(
@@ -158,4 +173,29 @@ def run(ctx: Context) -> list[Table]:
         "instrumented run"
     )
     table.notes += lag_share[-2:-1]
-    return [table]
+    return [table, _threads(session, n, repeat)]
+
+
+def _threads(session: Session, n: int, repeat: int) -> Table:
+    """The default diagnosis, its time-constant searches on one thread and on every core."""
+    cores = os.cpu_count() or 1
+    table = Table(
+        "(d2) the default diagnosis, the axes' time-constant searches run together on "
+        f"one thread and on every core ({cores})"
+    )
+    kept = diagnosis_search.search_threads
+    try:
+        for threads in (1, None):
+            diagnosis_search.search_threads = threads
+            name = f"search_threads={threads or cores}"
+            table.rows.append(
+                measure(name, lambda: diagnosis.diagnose(session), n=n, repeat=repeat)
+            )
+    finally:
+        diagnosis_search.search_threads = kept
+    table.set_ratios(lambda r: "search_threads=1" if r.name != "search_threads=1" else None)
+    table.notes.append(
+        "ratio = median with one thread / median with every core; the results are the "
+        "same bit for bit (tests/test_search.py)"
+    )
+    return table

@@ -216,6 +216,54 @@ def test_bad_inputs_are_typed_errors() -> None:
         core.search(f, y, [("lag", 1, None)], range_s=(10.0, 1.0))
 
 
+def _models(seed: int, stride: int) -> tuple[dict[str, Any], list[tuple[Any, ...]]]:
+    """A data set and several models on it: its own, lags only, decays only, both."""
+    data, model, _ = _problem(seed, stride)
+    f, y = model["fixed"], model["response"]
+    gravity = np.where(np.arange(f.shape[0]) % 7 < 3, 1.0, -1.0)
+    columns: list[list[tuple[str, int, FloatArray | None]]] = [
+        model["columns"],
+        [("fixed", 0, None), ("lag", 1, None), ("lag", 3, gravity)],
+        [("decay", 0, gravity), ("fixed", 0, None)],
+        [("lag", 2, None), ("fixed", 0, None), ("decay", 0, None)],
+    ]
+    return data, [(f, y, c) for c in columns]
+
+
+@given(seed=seeds, stride=st.integers(1, 2))
+def test_searches_together_are_the_searches_alone(seed: int, stride: int) -> None:
+    data, models = _models(seed, stride)
+    settings: dict[str, Any] = {"range_s": (5.0, 2000.0)}
+    alone = [_both(data)[0].search(*m, **settings) for m in models]
+    for threads in (1, 2, 3):
+        core = _both(data)[0]
+        for _ in range(2):  # then again, from the window means the first kept
+            together = core.search_many(models, threads=threads, **settings)
+            assert len(together) == len(models)
+            # The same trials in the same order, the same floats: bit for bit.
+            for (best, trials), (want_best, want_trials) in zip(together, alone, strict=True):
+                assert best == want_best
+                assert trials.tobytes() == want_trials.tobytes()
+    assert _both(data)[0].search_many([], threads=2, **settings) == []
+
+
+def test_searches_together_give_the_first_models_error() -> None:
+    data, models = _models(3, 1)
+    core, _ = _both(data)
+    f, y, _ = models[0]
+    bad_column = (f, y, [("fixed", f.shape[1], None)])
+    short = (f, y[1:], [("lag", 1, None)])
+    for threads in (1, 2):
+        with pytest.raises(ParameterError):
+            core.search_many([models[1], bad_column, short], range_s=(5.0, 2000.0), threads=threads)
+        with pytest.raises(ShapeError):
+            core.search_many([models[1], short, bad_column], range_s=(5.0, 2000.0), threads=threads)
+    with pytest.raises(ParameterError):
+        core.search_many(models, range_s=(5.0, 2000.0), threads=0)
+    with pytest.raises(ParameterError):
+        core.search_many(models, range_s=(10.0, 1.0), threads=2)
+
+
 # ----------------------------------------------------------------- on a diagnosis engine
 
 
@@ -287,5 +335,52 @@ def test_diagnose_finds_the_same_lag_with_the_core_and_the_loop(
     pd.testing.assert_frame_equal(found.candidates, looped.candidates)
     for a in AXES:
         got, want = found.calibration.axes[a], looped.calibration.axes[a]
+        assert got.terms == want.terms
+        np.testing.assert_array_equal(got.coefficients, want.coefficients)
+
+
+class _CountedSearch:
+    """The core's search of an engine, its calls counted."""
+
+    def __init__(self, inner: TimeConstantSearch, calls: list[tuple[str, int, int]]) -> None:
+        self.inner, self.calls = inner, calls
+
+    def search(self, *args: Any, **kw: Any) -> Any:
+        self.calls.append(("search", 1, 1))
+        return self.inner.search(*args, **kw)
+
+    def search_many(self, models: Any, **kw: Any) -> Any:
+        self.calls.append(("search_many", len(models), kw["threads"]))
+        return self.inner.search_many(models, **kw)
+
+
+def test_diagnose_is_the_same_on_one_thread_and_two(monkeypatch: pytest.MonkeyPatch) -> None:
+    session = make_session((se.ThermalLag(90.0), se.WarmUp(3.0, 400.0)), 2)
+    core = diagnosis_search._core
+    found: dict[int, Any] = {}
+    calls: dict[int, list[tuple[str, int, int]]] = {}
+    for threads in (1, 2):
+        calls[threads] = []
+        monkeypatch.setattr(diagnosis_search, "search_threads", threads)
+        monkeypatch.setattr(
+            diagnosis_search,
+            "_core",
+            lambda eng, seen=calls[threads]: _CountedSearch(core(eng), seen),
+        )
+        found[threads] = diagnose(session)
+    # Every search of the lag and the warm-up ran in a batch of the axes' models, none
+    # alone afterwards; the batches the same on one thread and two.
+    assert calls[1] and all(kind == "search_many" for kind, _, _ in calls[1])
+    assert any(n > 1 for _, n, _ in calls[1])
+    assert [c[:2] for c in calls[1]] == [c[:2] for c in calls[2]]
+    assert {c[2] for c in calls[2]} == {2}
+    one, two = found[1], found[2]
+    assert "thermal_lag" in one.effects
+    assert one.effects == two.effects
+    # Exactly the same figures (repr writes each float's shortest exact form; NaN too).
+    assert repr(one.steps) == repr(two.steps)
+    pd.testing.assert_frame_equal(one.candidates, two.candidates, check_exact=True)
+    for a in AXES:
+        got, want = one.calibration.axes[a], two.calibration.axes[a]
         assert got.terms == want.terms
         np.testing.assert_array_equal(got.coefficients, want.coefficients)

@@ -561,6 +561,35 @@ class TimeConstantSearch:
             A record's time going back, for a model with a lag column.
         """
 
+    def search_many(
+        self,
+        models: Sequence[tuple[ArrayLike, ArrayLike, Sequence[tuple[str, int, ArrayLike | None]]]],
+        /,
+        *,
+        range_s: tuple[float, float],
+        grid_points: int = 10,
+        steps: int = 8,
+        tol: float = 5e-3,
+        threads: int = 1,
+    ) -> list[tuple[float, NDArray[np.float64]]]:
+        """Search ``tau`` for several models at once; one ``(best, trials)`` per model.
+
+        Each model ``(fixed, response, columns)`` is searched as :meth:`search` does
+        alone (the same trials, in the same order, the same scores bit for bit), on
+        up to ``threads`` threads with the GIL released: the grid's window means
+        first (every model tries the same grid), one value of ``tau`` per thread at
+        a time, then the models, one per thread at a time. ``threads=1``: one search
+        after the other.
+
+        Raises
+        ------
+        accelcore.ParameterError, accelcore.ShapeError, accelcore.NonFiniteError, accelcore.TimeOrderError
+            As :meth:`search`: the error of the first model (in order) that has one;
+            a ``ParameterError`` for ``threads`` below 1.
+        accelcore.AccelcoreError
+            A search thread panicked (an internal error; the process goes on).
+        """
+
     def score(
         self,
         fixed: ArrayLike,

@@ -54,6 +54,7 @@ from accelcore._accelcore import __version__, merge_runs, plan_split, read_run_r
 from accelcore.apps.fleet_rows import fleet_rows
 from accelcore.apps.progress import Progress
 from accelcore.diagnosis import diagnose as run_diagnosis
+from accelcore.diagnosis import search as diagnosis_search
 from accelcore.errors import AccelcoreError
 from accelcore.files import atomic_write
 from accelcore.fitting.calibrate import calibrate
@@ -341,10 +342,15 @@ def watch_parent(parent_pid: int, interval_s: float = 1.0) -> None:
     threading.Thread(target=watch, name="accelcore-watch-parent", daemon=True).start()
 
 
-def _start_worker(parent_pid: int, read_threads: int) -> None:
-    """Initialise a worker process: watch the parent, take a share of the cores."""
+def _start_worker(parent_pid: int, threads: int) -> None:
+    """Initialise a worker process: watch the parent, take a share of the cores.
+
+    ``threads`` (cores // jobs) reads the logs of a session and runs the diagnosis'
+    time-constant searches; BLAS runs on one.
+    """
     watch_parent(parent_pid)
-    session_reader.read_threads = read_threads
+    session_reader.read_threads = threads
+    diagnosis_search.search_threads = threads
     threadpool_limits(limits=1, user_api="blas")
 
 

@@ -3,13 +3,15 @@
 :func:`variants` lists the variants of one family on one axis (orders, sources,
 extra columns), :func:`search_tau` finds a lag's time constant by held-out error (grid,
 then parabolic steps; :func:`tau_trials` runs the trials in the core when the model's
-columns that follow tau are lags or decays), :func:`tau_se` its standard error, and
+columns that follow tau are lags or decays, :func:`search_many` several such searches
+at once on :data:`search_threads` threads), :func:`tau_se` its standard error, and
 :func:`confounding` the pairs of effects this data cannot tell apart.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import weakref
 from collections.abc import Callable, Container, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -38,6 +40,7 @@ __all__ = [
     "confounding",
     "profile_se",
     "search_1d",
+    "search_many",
     "search_tau",
     "tau_columns",
     "tau_se",
@@ -160,6 +163,16 @@ def search_1d(
 #: (the same trials to rounding; False forces the Python loop, for tests and benches).
 CORE_SEARCH = True
 
+#: Threads of the core's searches run together (:func:`search_many`); None: one per
+#: core. A bulk worker process sets it to its share of the cores
+#: (:mod:`accelcore.apps.bulk`), so that jobs times threads never exceeds the cores.
+search_threads: int | None = None
+
+#: Key of a core search: the axis, the range, the model's column keys at both ends of
+#: the range (they make its design: :func:`tau_columns`) and the search's settings.
+_SearchKey = tuple[object, ...]
+_Trials = tuple[float, dict[float, float]]
+
 
 def tau_trials(
     eng: Engine,
@@ -180,17 +193,96 @@ def tau_trials(
     skips the Python of each trial and builds each tau's columns once for every axis.
     """
     if CORE_SEARCH if core is None else core:
+        key = _search_key(eng, axis, make, range_s)
+        found = _found(eng).get(key)
+        if found is None:
+            recipe = tau_columns(eng, axis, make, range_s)
+            if recipe is not None:
+                best, trials = _core(eng).search(
+                    *recipe,
+                    range_s=range_s,
+                    grid_points=GRID_POINTS,
+                    steps=SEARCH_STEPS,
+                    tol=TAU_TOL,
+                )
+                found = _keep(eng, key, best, trials)
+        if found is not None:
+            return found[0], dict(found[1])
+    return _python_trials(eng, axis, make, range_s)
+
+
+def search_many(
+    eng: Engine,
+    searches: Sequence[tuple[str, Callable[[float], Spec]]],
+    range_s: tuple[float, float],
+) -> None:
+    """Run in the core, at once, the searches :func:`tau_trials` will be asked for.
+
+    ``searches``: ``(axis, make)`` of each. Those the core can run (:func:`tau_columns`)
+    and has not run yet go to one
+    :meth:`~accelcore.core.TimeConstantSearch.search_many` on :data:`search_threads`
+    threads; :func:`tau_trials` then takes their results for the same model (the
+    same column keys) and range. Each search gives the floats it gives alone, on any
+    number of threads. Nothing when :data:`CORE_SEARCH` is False.
+    """
+    if not CORE_SEARCH:
+        return
+    found = _found(eng)
+    wanted: dict[
+        _SearchKey, tuple[FloatArray, FloatArray, list[tuple[str, int, FloatArray | None]]]
+    ]
+    wanted = {}
+    for axis, make in searches:
+        key = _search_key(eng, axis, make, range_s)
+        if key in found or key in wanted:
+            continue
         recipe = tau_columns(eng, axis, make, range_s)
         if recipe is not None:
-            best, trials = _core(eng).search(
-                *recipe,
-                range_s=range_s,
-                grid_points=GRID_POINTS,
-                steps=SEARCH_STEPS,
-                tol=TAU_TOL,
-            )
-            return best, {float(t): float(v) for t, v in trials}
-    return _python_trials(eng, axis, make, range_s)
+            wanted[key] = recipe
+    if not wanted:
+        return
+    results = _core(eng).search_many(
+        list(wanted.values()),
+        range_s=range_s,
+        grid_points=GRID_POINTS,
+        steps=SEARCH_STEPS,
+        tol=TAU_TOL,
+        threads=search_threads or os.cpu_count() or 1,
+    )
+    for key, (best, trials) in zip(wanted, results, strict=True):
+        _keep(eng, key, best, trials)
+
+
+#: Searches the core ran for each engine, by :func:`_search_key` (at most
+#: :data:`_KEPT_SEARCHES`; all are dropped when one more is needed).
+_FOUND: weakref.WeakKeyDictionary[Engine, dict[_SearchKey, _Trials]] = weakref.WeakKeyDictionary()
+_KEPT_SEARCHES = 256
+
+
+def _found(eng: Engine) -> dict[_SearchKey, _Trials]:
+    found = _FOUND.get(eng)
+    if found is None:
+        found = _FOUND[eng] = {}
+    return found
+
+
+def _search_key(
+    eng: Engine, axis: str, make: Callable[[float], Spec], range_s: tuple[float, float]
+) -> _SearchKey:
+    """Return what determines a core search's result (see :data:`_SearchKey`)."""
+    lo, hi = range_s
+    ends = tuple(eng._keys(axis, make(t).terms(axis)) for t in (lo, hi))
+    return (axis, (float(lo), float(hi)), ends, GRID_POINTS, SEARCH_STEPS, TAU_TOL)
+
+
+def _keep(eng: Engine, key: _SearchKey, best: float, trials: FloatArray) -> _Trials:
+    """Keep a core search's result under its key; return it."""
+    found = _found(eng)
+    if len(found) >= _KEPT_SEARCHES:
+        found.clear()
+    kept = (float(best), {float(t): float(v) for t, v in trials})
+    found[key] = kept
+    return kept
 
 
 #: The core's search of each engine (it keeps the window means of the columns each

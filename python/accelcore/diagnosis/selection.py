@@ -22,8 +22,9 @@ calibration (:func:`_improved_calibration`) and check the final residual for str
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from functools import partial
 from typing import Any, Literal
 
 import numpy as np
@@ -140,39 +141,64 @@ class _Selection:
             self.steps.append(self._step(step, best, chosen, params))
 
     # -------------------------------------------------------------- one step
+    def _tau_range(self, family: str) -> tuple[float, float]:
+        """Return the range of the time constant that ``family`` searches, s."""
+        if family == "warm_up":
+            return search.warm_up_range_s(self.eng)
+        return self.rules.tau_range_s
+
+    def _tau_searches(
+        self, family: str, axis: str
+    ) -> list[tuple[str, str, Callable[[float], Spec]]]:
+        """Return the time-constant searches of ``family`` on ``axis``.
+
+        Each as (family of its candidate, its label before the tau, model of tau); none
+        for a family that searches no time constant, or whose one the axis' model holds.
+        """
+        spec = self.specs[axis]
+        if family == "warm_up" and not any(isinstance(t.basis, Decay) for t in spec.events):
+            return [(search.WARM_UP, "", partial(search.with_warm_up, spec))]
+        if family == "thermal_lag" and spec.tau is None and spec.rate_tau is None:
+            return [
+                (family, what, partial(with_tau, spec, variant))
+                for variant, what in (("die", "die lag, "), ("rate", "rate term, "))
+            ]
+        return []
+
+    def _search_together(self, family: str) -> None:
+        """Run the time-constant searches of ``family`` on every axis at once.
+
+        Each gives what it gives alone (:func:`.search.search_many`); :meth:`_tried`
+        takes them.
+        """
+        searches = [(a, make) for a in AXES for _, _, make in self._tau_searches(family, a)]
+        if searches:
+            search.search_many(self.eng, searches, self._tau_range(family))
+
     def _tried(self, family: str, axis: str) -> list[_Tried]:
         """Every variant of ``family`` on ``axis``, cross-validated."""
         spec, rules = self.specs[axis], self.rules
-        if family == "warm_up":
-            if any(isinstance(t.basis, Decay) for t in spec.events):
-                return []
-            range_s = search.warm_up_range_s(self.eng)
-            tau, cv = search.search_1d(
-                self.eng, axis, lambda t: search.with_warm_up(spec, t), range_s
-            )
-            return [(search.WARM_UP, f"tau {tau:.3g} s", cv, search.with_warm_up(spec, tau))]
+        if family in ("warm_up", "thermal_lag"):
+            range_s = self._tau_range(family)
+            tried: list[_Tried] = []
+            for fam, what, make in self._tau_searches(family, axis):
+                tau, cv = search.search_1d(self.eng, axis, make, range_s)
+                tried.append((fam, f"{what}tau {tau:.3g} s", cv, make(tau)))
+            return tried
         if family == "smooth":
             return self._tried_generic(axis, spec)
-        if family != "thermal_lag":
-            return [
-                (fam, label, self.eng.cv(axis, s.terms(axis)), s)
-                for fam, label, s in variants(
-                    family,
-                    axis,
-                    spec,
-                    self.eng,
-                    rules.max_order,
-                    rules.extras,
-                    rules.skip_observables,
-                )
-            ]
-        if spec.tau is not None or spec.rate_tau is not None:
-            return []
-        tried: list[_Tried] = []
-        for variant, what in (("die", "die lag"), ("rate", "rate term")):
-            tau, cv = search.search_tau(self.eng, axis, spec, rules.tau_range_s, variant)
-            tried.append((family, f"{what}, tau {tau:.3g} s", cv, with_tau(spec, variant, tau)))
-        return tried
+        return [
+            (fam, label, self.eng.cv(axis, s.terms(axis)), s)
+            for fam, label, s in variants(
+                family,
+                axis,
+                spec,
+                self.eng,
+                rules.max_order,
+                rules.extras,
+                rules.skip_observables,
+            )
+        ]
 
     def _tried_generic(self, axis: str, spec: Spec) -> list[_Tried]:
         """Cross-validate the generic coarse variants, and the fine ones where those cut."""
@@ -194,6 +220,7 @@ class _Selection:
         self.eng.set_models({a: self.specs[a].terms(a) for a in AXES})
         by_family: dict[str, list[Candidate]] = {}
         for family in self.rules.families:
+            self._search_together(family)
             for a in AXES:
                 groups: dict[str, list[_Tried]] = {}
                 for o in self._tried(family, a):
@@ -269,6 +296,16 @@ class _Selection:
 
     def _revisit_lags(self) -> None:
         """Search again the lag of every axis that has one (variant and tau), keep the better."""
+        bare_specs = {
+            a: replace(s, tau=None, rate_tau=None)
+            for a, s in self.specs.items()
+            if s.tau is not None or s.rate_tau is not None
+        }
+        search.search_many(
+            self.eng,
+            [(a, partial(with_tau, s, v)) for a, s in bare_specs.items() for v in ("die", "rate")],
+            self.rules.tau_range_s,
+        )
         for a in AXES:
             if self.specs[a].tau is None and self.specs[a].rate_tau is None:
                 continue

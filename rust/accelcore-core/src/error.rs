@@ -84,6 +84,13 @@ pub enum Error {
         /// What was found and what was expected.
         reason: String,
     },
+    /// A worker thread of the core stopped without a result (it panicked: a bug,
+    /// data-dependent paths return the other variants).
+    #[error("internal error: {reason}")]
+    Internal {
+        /// What stopped, and the panic's message when it has one.
+        reason: String,
+    },
     /// The operating system refused an I/O operation.
     #[error("{path}: {reason}")]
     Io {

@@ -43,8 +43,18 @@
 //! significant digits as Python's `float(f"{tau:.3g}")` does (trials of one rounded
 //! value are scored once), a log grid, then parabolic steps in `log tau` with
 //! golden-section steps where a parabola leaves the bracket.
+//!
+//! [`TimeConstantSearch::search_many`] runs the searches of several models on up to
+//! `threads` threads, each search the same trials and scores as alone: a trial is
+//! evaluated from `&self` and its own scratch (the lagged temperature), and the kept
+//! window means, shared by the threads, are a function of `tau` only (a value is
+//! built the same way whichever thread builds it, and whether or not it was kept).
 
 use std::collections::HashMap;
+use std::panic::{self, AssertUnwindSafe};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::thread;
 
 use ndarray::{Array2, ArrayView2};
 
@@ -153,6 +163,51 @@ struct Record {
     offset: usize,
 }
 
+/// Window means kept per `tau` (its bits), shared by the threads of
+/// [`TimeConstantSearch::search_many`]: looked up and stored under the lock, built
+/// outside it.
+#[derive(Debug, Default)]
+struct MeansCache<T>(Mutex<HashMap<u64, Arc<T>>>);
+
+impl<T> Clone for MeansCache<T> {
+    fn clone(&self) -> Self {
+        Self(Mutex::new(self.lock().clone()))
+    }
+}
+
+impl<T> MeansCache<T> {
+    /// The map; a thread that panicked holding the lock left it whole (a lookup or
+    /// one insert), so its poison is ignored.
+    fn lock(&self) -> MutexGuard<'_, HashMap<u64, Arc<T>>> {
+        self.0.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    fn get(&self, key: u64) -> Option<Arc<T>> {
+        self.lock().get(&key).cloned()
+    }
+
+    /// Keep `value` for `key` unless what is kept already does (`covers`); all are
+    /// dropped when [`CACHED_TAUS`] are kept and one more is needed.
+    fn insert(&self, key: u64, value: &Arc<T>, covers: impl FnOnce(&T) -> bool) {
+        let mut map = self.lock();
+        if map.get(&key).is_some_and(|kept| covers(kept)) {
+            return;
+        }
+        if map.len() >= CACHED_TAUS && !map.contains_key(&key) {
+            map.clear();
+        }
+        map.insert(key, Arc::clone(value));
+    }
+
+    fn len(&self) -> usize {
+        self.lock().len()
+    }
+
+    fn clear(&self) {
+        self.lock().clear();
+    }
+}
+
 /// A model checked against the search, its rows taken: what each of its trials shares.
 struct Prepared {
     template: Array2<f64>,
@@ -183,11 +238,9 @@ pub struct TimeConstantSearch {
     /// Each fold is its own fold (`0..n_folds`).
     folds: Vec<u32>,
     /// Window means of `(lag - t_ref)^k` (index k - 1) per `tau` (bits), trial rows.
-    lag_cache: HashMap<u64, Vec<Vec<f64>>>,
+    lag_cache: MeansCache<Vec<Vec<f64>>>,
     /// Window means of `exp(-t / tau)` per `tau` (bits), trial rows.
-    decay_cache: HashMap<u64, Vec<f64>>,
-    /// The lagged temperature of every record sample (reused by every trial).
-    lagged: Vec<f64>,
+    decay_cache: MeansCache<Vec<f64>>,
     /// What the filter says of the records (non-finite values, time going back).
     lag_error: Option<Error>,
 }
@@ -290,9 +343,8 @@ impl TimeConstantSearch {
                 .collect(),
             folds: (0..n_folds).collect(),
             rows,
-            lag_cache: HashMap::new(),
-            decay_cache: HashMap::new(),
-            lagged: Vec::new(),
+            lag_cache: MeansCache::default(),
+            decay_cache: MeansCache::default(),
             lag_error,
         })
     }
@@ -306,9 +358,9 @@ impl TimeConstantSearch {
     /// (not rounded), one row per trial window.
     ///
     /// Errors: those of [`TimeConstantSearch::score`].
-    pub fn design(&mut self, model: &TrialModel<'_>, tau_s: f64) -> Result<Array2<f64>> {
+    pub fn design(&self, model: &TrialModel<'_>, tau_s: f64) -> Result<Array2<f64>> {
         let prepared = self.prepare(model)?;
-        self.assemble(model, &prepared, tau_s)
+        self.assemble(model, &prepared, tau_s, &mut Vec::new())
     }
 
     /// Score of one `tau_s` (not rounded): the held-out weighted squared error of
@@ -320,9 +372,9 @@ impl TimeConstantSearch {
     /// `tau_s` that is not finite and positive; those of [`first_order_lag`] on the
     /// records for a model with a lag column; those of [`BlockedLeastSquares::push`]
     /// (a non-finite fixed column).
-    pub fn score(&mut self, model: &TrialModel<'_>, tau_s: f64) -> Result<f64> {
+    pub fn score(&self, model: &TrialModel<'_>, tau_s: f64) -> Result<f64> {
         let prepared = self.prepare(model)?;
-        self.trial(model, &prepared, tau_s)
+        self.trial(model, &prepared, tau_s, &mut Vec::new())
     }
 
     /// Search `tau` for `model` as the Python diagnosis does (see the module docs).
@@ -331,27 +383,124 @@ impl TimeConstantSearch {
     /// (finite), no grid point, or a non-finite or negative `tol`; those of
     /// [`TimeConstantSearch::score`].
     pub fn search(
-        &mut self,
+        &self,
         model: &TrialModel<'_>,
         settings: &SearchSettings,
     ) -> Result<SearchResult> {
-        let (lo, hi) = settings.range_s;
-        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
-            return Err(invalid(
-                "range_s",
-                format!("must be 0 < lo <= hi, finite; got ({lo}, {hi})"),
-            ));
-        }
-        if settings.grid_points == 0 {
-            return Err(invalid("grid_points", "must be >= 1".to_string()));
-        }
-        if !(settings.tol.is_finite() && settings.tol >= 0.0) {
-            return Err(invalid(
-                "tol",
-                format!("must be finite and >= 0, got {}", settings.tol),
-            ));
-        }
+        check_settings(settings)?;
         let prepared = self.prepare(model)?;
+        self.search_prepared(model, &prepared, settings, &mut Vec::new())
+    }
+
+    /// Search `tau` for each model, as [`TimeConstantSearch::search`] does for each
+    /// alone, on up to `threads` threads; the results in the models' order.
+    ///
+    /// Each model's search makes the same trials in the same order, and each trial
+    /// gives the same floats, as alone: a trial's arithmetic does not depend on the
+    /// thread. With more than one thread, the window means of the grid's values of
+    /// `tau` (every model tries the same grid) are built first, one value per thread
+    /// at a time, then the models are searched, one per thread at a time. One thread:
+    /// the searches one after the other on this one.
+    ///
+    /// Errors: [`Error::InvalidParameter`] for `threads` of 0; those of
+    /// [`TimeConstantSearch::search`], of the first model (in order) that has one;
+    /// [`Error::Internal`] for a thread that panicked.
+    pub fn search_many(
+        &self,
+        models: &[TrialModel<'_>],
+        settings: &SearchSettings,
+        threads: usize,
+    ) -> Result<Vec<SearchResult>> {
+        if threads == 0 {
+            return Err(invalid("threads", "must be >= 1".to_string()));
+        }
+        check_settings(settings)?;
+        if threads == 1 || models.len() <= 1 {
+            let mut lagged = Vec::new();
+            return models
+                .iter()
+                .map(|model| {
+                    let prepared = self.prepare(model)?;
+                    self.search_prepared(model, &prepared, settings, &mut lagged)
+                })
+                .collect();
+        }
+        let prepared: Vec<Result<Prepared>> = models.iter().map(|m| self.prepare(m)).collect();
+        self.fill_grid(&prepared, settings, threads)?;
+        let searched = parallel_map(models.len(), threads, |i, lagged| match &prepared[i] {
+            Ok(p) => self.search_prepared(&models[i], p, settings, lagged),
+            Err(e) => Err(e.clone()),
+        })?;
+        searched.into_iter().collect()
+    }
+
+    /// Build and keep, on up to `threads` threads, the window means of the grid's
+    /// values of `tau` that the prepared models need and that are not kept; nothing
+    /// when the grid would crowd the others out of the cache.
+    fn fill_grid(
+        &self,
+        prepared: &[Result<Prepared>],
+        settings: &SearchSettings,
+        threads: usize,
+    ) -> Result<()> {
+        let ready = prepared.iter().flatten();
+        let max_order = ready.clone().map(|p| p.max_order).max().unwrap_or(0);
+        let decay = ready.clone().any(|p| p.decay);
+        let (lo, hi) = settings.range_s;
+        let mut taus: Vec<f64> = Vec::new();
+        for g in linspace(lo.ln(), hi.ln(), settings.grid_points) {
+            let tau = round_significant(g.exp(), 3);
+            if tau.is_finite() && tau > 0.0 && !taus.contains(&tau) {
+                taus.push(tau);
+            }
+        }
+        if taus.len() > CACHED_TAUS / 2 {
+            return Ok(());
+        }
+        // (tau, whether a decay's means): the ones not kept (lags of too few orders).
+        let mut wanted: Vec<(f64, bool)> = Vec::new();
+        for &tau in &taus {
+            let key = tau.to_bits();
+            if max_order > 0
+                && self
+                    .lag_cache
+                    .get(key)
+                    .is_none_or(|m| m.len() < max_order as usize)
+            {
+                wanted.push((tau, false));
+            }
+            if decay && self.decay_cache.get(key).is_none() {
+                wanted.push((tau, true));
+            }
+        }
+        let lags = wanted.iter().filter(|w| !w.1).count();
+        if self.lag_cache.len() + lags > CACHED_TAUS {
+            self.lag_cache.clear();
+        }
+        if self.decay_cache.len() + (wanted.len() - lags) > CACHED_TAUS {
+            self.decay_cache.clear();
+        }
+        parallel_map(wanted.len(), threads, |i, lagged| {
+            let (tau, is_decay) = wanted[i];
+            if is_decay {
+                self.keep_decay_means(tau);
+            } else {
+                self.keep_lag_means(tau, max_order, lagged);
+            }
+            Ok(())
+        })?;
+        Ok(())
+    }
+
+    /// The search of a prepared model (its settings checked).
+    fn search_prepared(
+        &self,
+        model: &TrialModel<'_>,
+        prepared: &Prepared,
+        settings: &SearchSettings,
+        lagged: &mut Vec<f64>,
+    ) -> Result<SearchResult> {
+        let (lo, hi) = settings.range_s;
         let tol = settings.tol;
         let mut trials: Vec<(f64, f64)> = Vec::new();
         let mut score = |tau: f64| -> Result<f64> {
@@ -359,7 +508,7 @@ impl TimeConstantSearch {
             if let Some(&(_, s)) = trials.iter().find(|(t, _)| *t == tau) {
                 return Ok(s);
             }
-            let s = self.trial(model, &prepared, tau)?;
+            let s = self.trial(model, prepared, tau, lagged)?;
             trials.push((tau, s));
             Ok(s)
         };
@@ -474,12 +623,13 @@ impl TimeConstantSearch {
         })
     }
 
-    /// The design of a prepared model at `tau_s`.
+    /// The design of a prepared model at `tau_s` (`lagged`: scratch of the lag pass).
     fn assemble(
-        &mut self,
+        &self,
         model: &TrialModel<'_>,
         prepared: &Prepared,
         tau_s: f64,
+        lagged: &mut Vec<f64>,
     ) -> Result<Array2<f64>> {
         if !(tau_s.is_finite() && tau_s > 0.0) {
             return Err(invalid(
@@ -487,32 +637,17 @@ impl TimeConstantSearch {
                 format!("must be finite and > 0, got {tau_s}"),
             ));
         }
-        let key = tau_s.to_bits();
-        if prepared.max_order > 0 {
-            let cached = self.lag_cache.get(&key).map_or(0, Vec::len);
-            if cached < prepared.max_order as usize {
-                let means = self.lag_means(tau_s, prepared.max_order);
-                if self.lag_cache.len() >= CACHED_TAUS {
-                    self.lag_cache.clear();
-                }
-                self.lag_cache.insert(key, means);
-            }
-        }
-        if prepared.decay && !self.decay_cache.contains_key(&key) {
-            let means = self.decay_means(tau_s);
-            if self.decay_cache.len() >= CACHED_TAUS {
-                self.decay_cache.clear();
-            }
-            self.decay_cache.insert(key, means);
-        }
+        let lag = (prepared.max_order > 0)
+            .then(|| self.keep_lag_means(tau_s, prepared.max_order, lagged));
+        let decay = prepared.decay.then(|| self.keep_decay_means(tau_s));
         let mut design = prepared.template.clone();
         for (c, column) in model.columns.iter().enumerate() {
-            let (means, multiplier) = match column {
-                TauColumn::Fixed(_) => continue,
-                TauColumn::LagPower { order, multiplier } => {
-                    (&self.lag_cache[&key][*order as usize - 1], multiplier)
+            let (means, multiplier): (&[f64], _) = match (column, &lag, &decay) {
+                (TauColumn::LagPower { order, multiplier }, Some(lag), _) => {
+                    (&lag[*order as usize - 1], multiplier)
                 }
-                TauColumn::Decay { multiplier } => (&self.decay_cache[&key], multiplier),
+                (TauColumn::Decay { multiplier }, _, Some(decay)) => (decay, multiplier),
+                _ => continue,
             };
             for (r, &mean) in means.iter().enumerate() {
                 design[[r, c]] = match multiplier {
@@ -524,9 +659,45 @@ impl TimeConstantSearch {
         Ok(design)
     }
 
+    /// The window means of the lag's powers `1..=max_order` at `tau_s`: the kept ones,
+    /// else new ones, kept.
+    fn keep_lag_means(
+        &self,
+        tau_s: f64,
+        max_order: u32,
+        lagged: &mut Vec<f64>,
+    ) -> Arc<Vec<Vec<f64>>> {
+        let key = tau_s.to_bits();
+        let order = max_order as usize;
+        if let Some(means) = self.lag_cache.get(key).filter(|m| m.len() >= order) {
+            return means;
+        }
+        let means = Arc::new(self.lag_means(tau_s, max_order, lagged));
+        self.lag_cache
+            .insert(key, &means, |kept| kept.len() >= order);
+        means
+    }
+
+    /// The window means of the decay at `tau_s`: the kept ones, else new ones, kept.
+    fn keep_decay_means(&self, tau_s: f64) -> Arc<Vec<f64>> {
+        let key = tau_s.to_bits();
+        if let Some(means) = self.decay_cache.get(key) {
+            return means;
+        }
+        let means = Arc::new(self.decay_means(tau_s));
+        self.decay_cache.insert(key, &means, |_| true);
+        means
+    }
+
     /// Score a prepared model at `tau_s` (not rounded).
-    fn trial(&mut self, model: &TrialModel<'_>, prepared: &Prepared, tau_s: f64) -> Result<f64> {
-        let design = self.assemble(model, prepared, tau_s)?;
+    fn trial(
+        &self,
+        model: &TrialModel<'_>,
+        prepared: &Prepared,
+        tau_s: f64,
+        lagged: &mut Vec<f64>,
+    ) -> Result<f64> {
+        let design = self.assemble(model, prepared, tau_s, lagged)?;
         let mut lsq = BlockedLeastSquares::new(model.columns.len(), self.folds.len())?;
         lsq.push(
             design.view(),
@@ -539,8 +710,8 @@ impl TimeConstantSearch {
     }
 
     /// Window means of `(lag(T, tau) - t_ref)^k`, `k = 1..=max_order`, on the trial rows.
-    fn lag_means(&mut self, tau_s: f64, max_order: u32) -> Vec<Vec<f64>> {
-        self.lag_pass(tau_s);
+    fn lag_means(&self, tau_s: f64, max_order: u32, lagged: &mut Vec<f64>) -> Vec<Vec<f64>> {
+        self.lag_pass(tau_s, lagged);
         let mut means: Vec<Vec<f64>> = (0..max_order)
             .map(|_| Vec::with_capacity(self.rows.len()))
             .collect();
@@ -551,7 +722,7 @@ impl TimeConstantSearch {
             d.extend(
                 self.gather[start..stop]
                     .iter()
-                    .map(|&g| self.lagged[g] - self.t_ref_c),
+                    .map(|&g| lagged[g] - self.t_ref_c),
             );
             p.clear();
             p.extend_from_slice(&d);
@@ -586,13 +757,13 @@ impl TimeConstantSearch {
             .collect()
     }
 
-    /// The lagged temperature of every record sample into `self.lagged`: the floats of
+    /// The lagged temperature of every record sample into `lagged`: the floats of
     /// [`first_order_lag`] (`y += alpha (x - y)`, one factor `alpha = -expm1(-dt / tau)`
     /// per interval's bits), the records' recursions interleaved (they are independent,
     /// so the processor overlaps them).
-    fn lag_pass(&mut self, tau_s: f64) {
-        self.lagged.clear();
-        self.lagged.resize(self.total, 0.0);
+    fn lag_pass(&self, tau_s: f64, lagged: &mut Vec<f64>) {
+        lagged.clear();
+        lagged.resize(self.total, 0.0);
         let alphas: Vec<Vec<f64>> = self
             .records
             .iter()
@@ -617,10 +788,102 @@ impl TimeConstantSearch {
                 if i > 0 {
                     *y += alpha[record.step_class[i] as usize] * (x - *y);
                 }
-                self.lagged[record.offset + i] = *y;
+                lagged[record.offset + i] = *y;
             }
         }
     }
+}
+
+/// Check the settings of a search (see [`TimeConstantSearch::search`]).
+fn check_settings(settings: &SearchSettings) -> Result<()> {
+    let (lo, hi) = settings.range_s;
+    if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
+        return Err(invalid(
+            "range_s",
+            format!("must be 0 < lo <= hi, finite; got ({lo}, {hi})"),
+        ));
+    }
+    if settings.grid_points == 0 {
+        return Err(invalid("grid_points", "must be >= 1".to_string()));
+    }
+    if !(settings.tol.is_finite() && settings.tol >= 0.0) {
+        return Err(invalid(
+            "tol",
+            format!("must be finite and >= 0, got {}", settings.tol),
+        ));
+    }
+    Ok(())
+}
+
+/// What one thread of [`parallel_map`] did: `(i, work(i))`.
+type Done<R> = Vec<(usize, Result<R>)>;
+
+/// `work(i, scratch)` for `i` in `0..n` on up to `threads` threads (this one and
+/// helpers), each taking the next `i` when done with one, with its own scratch; the
+/// results in the order of `i`. One thread (or one item): a plain loop on this one.
+/// A helper that cannot start leaves its share to the others.
+///
+/// Errors: [`Error::Internal`] when a thread panics (a bug: `work` returns its
+/// errors); the panic is caught, every thread joined, and the process goes on.
+fn parallel_map<R, F>(n: usize, threads: usize, work: F) -> Result<Vec<Result<R>>>
+where
+    R: Send,
+    F: Fn(usize, &mut Vec<f64>) -> Result<R> + Sync,
+{
+    let threads = threads.min(n);
+    if threads <= 1 {
+        let mut scratch = Vec::new();
+        return Ok((0..n).map(|i| work(i, &mut scratch)).collect());
+    }
+    let next = AtomicUsize::new(0);
+    let worker = || {
+        let mut scratch = Vec::new();
+        let mut done = Vec::new();
+        loop {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            if i >= n {
+                return done;
+            }
+            done.push((i, work(i, &mut scratch)));
+        }
+    };
+    let parts: Vec<thread::Result<Done<R>>> = thread::scope(|scope| {
+        let helpers: Vec<_> = (1..threads)
+            .filter_map(|_| thread::Builder::new().spawn_scoped(scope, worker).ok())
+            .collect();
+        let own = panic::catch_unwind(AssertUnwindSafe(worker));
+        // Every helper is joined here: a panicked one gives its payload, not a panic
+        // of the scope.
+        let mut parts: Vec<_> = helpers
+            .into_iter()
+            .map(thread::ScopedJoinHandle::join)
+            .collect();
+        parts.push(own);
+        parts
+    });
+    let mut out: Vec<Option<Result<R>>> = (0..n).map(|_| None).collect();
+    for part in parts {
+        let part = part.map_err(|payload| {
+            let what = payload
+                .downcast_ref::<&str>()
+                .map(ToString::to_string)
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".to_string());
+            Error::Internal {
+                reason: format!("a search thread panicked: {what}"),
+            }
+        })?;
+        for (i, result) in part {
+            out[i] = Some(result);
+        }
+    }
+    out.into_iter()
+        .map(|r| {
+            r.ok_or_else(|| Error::Internal {
+                reason: "a search item was not run".to_string(),
+            })
+        })
+        .collect()
 }
 
 /// `x` rounded to `digits` significant digits as Python's `float(f"{x:.{digits}g}")`:
@@ -881,16 +1144,17 @@ mod tests {
     #[test]
     fn the_lag_pass_is_the_filter_bit_for_bit() {
         let d = data();
-        let mut s = searcher(&d, 1).unwrap();
+        let s = searcher(&d, 1).unwrap();
+        let mut lagged = Vec::new();
         for tau in [0.7, 60.0, 3600.0] {
-            s.lag_pass(tau);
+            s.lag_pass(tau, &mut lagged);
             let want: Vec<f64> = d
                 .time
                 .iter()
                 .zip(&d.temp)
                 .flat_map(|(t, x)| first_order_lag(t, x, tau, None).unwrap())
                 .collect();
-            assert_eq!(s.lagged, want);
+            assert_eq!(lagged, want);
         }
     }
 
@@ -909,7 +1173,7 @@ mod tests {
             TauColumn::Fixed(0),
             lag(1),
         ];
-        let mut s = searcher(&d, 3).unwrap();
+        let s = searcher(&d, 3).unwrap();
         let x = s.design(&model(&fixed, &y, &columns), 60.0).unwrap();
         assert_eq!(s.n_rows(), fixed.nrows().div_ceil(3));
         let decay: Vec<f64> = d.elapsed.iter().map(|t| (-t / 60.0).exp()).collect();
@@ -933,7 +1197,7 @@ mod tests {
             .collect();
         let columns = [TauColumn::Fixed(0), TauColumn::Fixed(1), lag(1)];
         let m = model(&fixed, &y, &columns);
-        let mut s = searcher(&d, 2).unwrap();
+        let s = searcher(&d, 2).unwrap();
         let x = s.design(&m, 45.0).unwrap();
         let rows: Vec<usize> = (0..fixed.nrows()).step_by(2).collect();
         let mut lsq = BlockedLeastSquares::new(3, d.block_fold.len()).unwrap();
@@ -960,7 +1224,7 @@ mod tests {
         let d = data();
         let (fixed, lag1, _) = fixed_and_lag(&d, 60.0);
         let y: Vec<f64> = lag1.iter().map(|v| 1.0 + v).collect();
-        let mut s = searcher(&d, 1).unwrap();
+        let s = searcher(&d, 1).unwrap();
         let once = [TauColumn::Fixed(0), lag(1)];
         let twice = [TauColumn::Fixed(0), lag(1), lag(1)];
         let a = s.score(&model(&fixed, &y, &once), 60.0).unwrap();
@@ -980,7 +1244,7 @@ mod tests {
             steps: 8,
             tol: 5e-3,
         };
-        let mut s = searcher(&d, 1).unwrap();
+        let s = searcher(&d, 1).unwrap();
         let found = s.search(&model(&fixed, &y, &columns), &settings).unwrap();
         assert!(close(found.best_tau_s, 90.0, 0.02), "{found:?}");
         // The grid first, each point rounded to three digits.
@@ -1008,6 +1272,197 @@ mod tests {
         let columns = [TauColumn::Fixed(0), TauColumn::Decay { multiplier: None }];
         let found = s.search(&model(&fixed, &y, &columns), &settings).unwrap();
         assert!(close(found.best_tau_s, 250.0, 0.02), "{found:?}");
+    }
+
+    /// A search's result as bits: equal results are the same floats.
+    fn bits(found: &SearchResult) -> (u64, Vec<(u64, u64)>) {
+        (
+            found.best_tau_s.to_bits(),
+            found
+                .trials
+                .iter()
+                .map(|(t, v)| (t.to_bits(), v.to_bits()))
+                .collect(),
+        )
+    }
+
+    #[test]
+    fn searches_on_threads_are_the_searches_alone_bit_for_bit() {
+        let d = data();
+        let (fixed, lag1, lag2) = fixed_and_lag(&d, 90.0);
+        let decay: Vec<f64> = d.elapsed.iter().map(|t| (-t / 250.0).exp()).collect();
+        let decay = plain_window_means(&d, &decay);
+        let g = Some(d.gravity.clone());
+        let lag_y: Vec<f64> = (0..fixed.nrows())
+            .map(|i| 0.3 + 1.5 * lag1[i] - 0.02 * lag2[i] * d.gravity[i])
+            .collect();
+        let decay_y: Vec<f64> = (0..fixed.nrows())
+            .map(|i| 1.0 - 3.0 * decay[i] * d.gravity[i] + 0.1 * fixed[[i, 1]])
+            .collect();
+        // Lag powers, a decay, both, with and without multipliers; responses that
+        // follow them and one that does not.
+        let columns: Vec<(Vec<TauColumn>, &[f64])> = vec![
+            (vec![TauColumn::Fixed(0), lag(1)], &lag_y),
+            (
+                vec![
+                    TauColumn::Fixed(0),
+                    TauColumn::Fixed(1),
+                    lag(1),
+                    TauColumn::LagPower {
+                        order: 3,
+                        multiplier: g.clone(),
+                    },
+                ],
+                &lag_y,
+            ),
+            (
+                vec![TauColumn::Decay { multiplier: None }, TauColumn::Fixed(0)],
+                &decay_y,
+            ),
+            (
+                vec![
+                    TauColumn::Fixed(0),
+                    TauColumn::Fixed(1),
+                    TauColumn::Decay { multiplier: g },
+                ],
+                &decay_y,
+            ),
+            (
+                vec![
+                    TauColumn::Fixed(0),
+                    lag(2),
+                    TauColumn::Decay { multiplier: None },
+                ],
+                &lag2,
+            ),
+        ];
+        let models: Vec<TrialModel<'_>> =
+            columns.iter().map(|(c, y)| model(&fixed, y, c)).collect();
+        let settings = SearchSettings {
+            range_s: (5.0, 3600.0),
+            grid_points: 10,
+            steps: 8,
+            tol: 5e-3,
+        };
+        // Each alone, on a search of its own (nothing kept from another model).
+        let alone: Vec<_> = models
+            .iter()
+            .map(|m| bits(&searcher(&d, 2).unwrap().search(m, &settings).unwrap()))
+            .collect();
+        assert!(alone.iter().all(|(_, trials)| trials.len() > 10));
+        for threads in [1, 2, 3] {
+            let s = searcher(&d, 2).unwrap();
+            let found = s.search_many(&models, &settings, threads).unwrap();
+            let found: Vec<_> = found.iter().map(bits).collect();
+            assert_eq!(found, alone, "{threads} threads");
+            // Again on the same search: every grid value kept, most steps' too.
+            let again = s.search_many(&models, &settings, threads).unwrap();
+            assert_eq!(again.iter().map(bits).collect::<Vec<_>>(), alone);
+            // And one model alone after the batch, from what the batch kept.
+            assert_eq!(bits(&s.search(&models[1], &settings).unwrap()), alone[1]);
+        }
+        // A grid too fine to keep whole, and more threads than models.
+        let fine = SearchSettings {
+            grid_points: 40,
+            ..settings
+        };
+        let s = searcher(&d, 3).unwrap();
+        let many = s.search_many(&models[..2], &fine, 4).unwrap();
+        for (m, found) in models.iter().zip(&many) {
+            let one = searcher(&d, 3).unwrap().search(m, &fine).unwrap();
+            assert_eq!(bits(found), bits(&one));
+        }
+        assert!(s.search_many(&[], &settings, 2).unwrap().is_empty());
+    }
+
+    #[test]
+    fn a_batch_gives_the_first_models_error() {
+        let d = data();
+        let (fixed, _, _) = fixed_and_lag(&d, 60.0);
+        let y = vec![0.0; fixed.nrows()];
+        let good = [TauColumn::Fixed(0), lag(1)];
+        let out_of_range = [TauColumn::Fixed(5), lag(1)];
+        let short = [TauColumn::Decay {
+            multiplier: Some(vec![1.0; 3]),
+        }];
+        let models = [
+            model(&fixed, &y, &good),
+            model(&fixed, &y, &out_of_range),
+            model(&fixed, &y, &short),
+        ];
+        let settings = SearchSettings {
+            range_s: (5.0, 3600.0),
+            grid_points: 10,
+            steps: 8,
+            tol: 5e-3,
+        };
+        let s = searcher(&d, 1).unwrap();
+        for threads in [1, 2, 3] {
+            assert!(matches!(
+                s.search_many(&models, &settings, threads),
+                Err(Error::InvalidParameter {
+                    name: "columns",
+                    ..
+                })
+            ));
+            assert!(matches!(
+                s.search_many(&models[2..], &settings, threads),
+                Err(Error::Shape {
+                    what: "multiplier",
+                    ..
+                })
+            ));
+        }
+        assert!(matches!(
+            s.search_many(&models[..1], &settings, 0),
+            Err(Error::InvalidParameter {
+                name: "threads",
+                ..
+            })
+        ));
+        let bad_range = SearchSettings {
+            range_s: (10.0, 5.0),
+            ..settings
+        };
+        assert!(matches!(
+            s.search_many(&models[..1], &bad_range, 2),
+            Err(Error::InvalidParameter {
+                name: "range_s",
+                ..
+            })
+        ));
+        // A lag model on records the filter refuses; the decay of the same batch runs.
+        let mut bad = data();
+        bad.temp[0][3] = f64::NAN;
+        let s = searcher(&bad, 1).unwrap();
+        let decay = [TauColumn::Fixed(0), TauColumn::Decay { multiplier: None }];
+        let batch = [model(&fixed, &y, &decay), model(&fixed, &y, &good)];
+        assert!(matches!(
+            s.search_many(&batch, &settings, 2),
+            Err(Error::NonFinite { row: 3, .. })
+        ));
+        assert!(s.search_many(&batch[..1], &settings, 2).is_ok());
+    }
+
+    #[test]
+    fn a_panicking_thread_is_an_internal_error() {
+        for threads in [2, 3] {
+            let got = parallel_map(6, threads, |i, _| {
+                assert!(i != 4, "item {i} panics");
+                Ok(i)
+            });
+            match got {
+                Err(Error::Internal { reason }) => assert!(reason.contains("item 4 panics")),
+                other => panic!("{other:?}"),
+            }
+        }
+        let squares = parallel_map(7, 3, |i, scratch| {
+            scratch.push(0.0);
+            Ok(i * i)
+        })
+        .unwrap();
+        let squares: Vec<usize> = squares.into_iter().map(Result::unwrap).collect();
+        assert_eq!(squares, (0..7).map(|i| i * i).collect::<Vec<_>>());
     }
 
     #[test]
@@ -1061,7 +1516,7 @@ mod tests {
         bad.time[1][5] = bad.time[1][4] - 1.0;
         bad.temp[0][3] = f64::NAN;
         let (f, y0) = (fixed.clone(), y.clone());
-        let mut s = searcher(&bad, 1).unwrap();
+        let s = searcher(&bad, 1).unwrap();
         // The first record's error, for a lag only: a decay needs no temperature.
         let decay = [TauColumn::Fixed(0), TauColumn::Decay { multiplier: None }];
         assert!(s.score(&model(&f, &y0, &decay), 60.0).is_ok());
@@ -1075,7 +1530,7 @@ mod tests {
             searcher(&bad, 1),
             Err(Error::InvalidParameter { name: "gather", .. })
         ));
-        let mut s = searcher(&d, 1).unwrap();
+        let s = searcher(&d, 1).unwrap();
         let one = [lag(1)];
         assert!(matches!(
             s.score(&model(&fixed, &y[1..], &one), 60.0),

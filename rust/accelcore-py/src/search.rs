@@ -1,7 +1,8 @@
 //! `TimeConstantSearch`: a lag's or warm-up's time constant by held-out error.
 
 use accelcore_core::{
-    Error, SampleSeries, SearchSettings, TauColumn, TimeConstantSearch, TrialModel, WindowLayout,
+    Error, SampleSeries, SearchResult, SearchSettings, TauColumn, TimeConstantSearch, TrialModel,
+    WindowLayout,
 };
 use ndarray::Array2;
 use numpy::{AllowTypeChange, IntoPyArray, PyArray2, PyArrayLike1};
@@ -87,7 +88,7 @@ impl PyTimeConstantSearch {
     /// Search tau for one model; return the best tau and every trial `(tau, score)`.
     #[pyo3(signature = (fixed, response, columns, /, *, range_s, grid_points = 10, steps = 8, tol = 5e-3))]
     fn search<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         fixed: &Bound<'py, PyAny>,
         response: &Bound<'py, PyAny>,
@@ -108,7 +109,7 @@ impl PyTimeConstantSearch {
         let response = slice_or_copy(&response);
         let columns = tau_columns(columns)?;
         let fixed = fixed.as_array();
-        let inner = &mut self.inner;
+        let inner = &self.inner;
         let found = run_detached(py, || {
             let model = TrialModel {
                 fixed,
@@ -117,18 +118,60 @@ impl PyTimeConstantSearch {
             };
             inner.search(&model, &settings)
         })?;
-        let mut trials = Array2::zeros((found.trials.len(), 2));
-        for (i, (tau, score)) in found.trials.iter().enumerate() {
-            trials[[i, 0]] = *tau;
-            trials[[i, 1]] = *score;
+        Ok(found_pair(py, &found))
+    }
+
+    /// Search tau for several models on up to `threads` threads, each as `search`
+    /// does alone; one `(best tau, trials)` per model, in order.
+    #[pyo3(signature = (models, /, *, range_s, grid_points = 10, steps = 8, tol = 5e-3, threads = 1))]
+    fn search_many<'py>(
+        &self,
+        py: Python<'py>,
+        models: Vec<(Bound<'py, PyAny>, Bound<'py, PyAny>, Columns<'py>)>,
+        range_s: (f64, f64),
+        grid_points: i64,
+        steps: i64,
+        tol: f64,
+        threads: i64,
+    ) -> PyResult<Vec<(f64, Bound<'py, PyArray2<f64>>)>> {
+        let settings = SearchSettings {
+            range_s,
+            grid_points: count("grid_points", grid_points)?,
+            steps: count("steps", steps)?,
+            tol,
+        };
+        let threads = count("threads", threads)?;
+        let mut fixed = Vec::with_capacity(models.len());
+        let mut responses = Vec::with_capacity(models.len());
+        let mut columns = Vec::with_capacity(models.len());
+        for (f, r, c) in models {
+            fixed.push(array2(&f, "fixed dimensions")?);
+            responses.push(array1(&r, "response dimensions")?);
+            columns.push(tau_columns(c)?);
         }
-        Ok((found.best_tau_s, trials.into_pyarray(py)))
+        let responses: Vec<_> = responses.iter().map(slice_or_copy).collect();
+        let fixed: Vec<_> = fixed.iter().map(|f| f.as_array()).collect();
+        let inner = &self.inner;
+        let found = run_detached(py, || {
+            let models: Vec<TrialModel<'_>> = fixed
+                .iter()
+                .zip(&responses)
+                .zip(&columns)
+                .map(|((fixed, response), columns)| TrialModel {
+                    fixed: fixed.view(),
+                    response,
+                    columns,
+                })
+                .collect();
+            inner.search_many(&models, &settings, threads)
+        })?;
+        Ok(found.iter().map(|f| found_pair(py, f)).collect())
     }
 
     /// Score of one model at `tau_s` (not rounded).
     #[pyo3(signature = (fixed, response, columns, tau_s, /))]
     fn score<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         fixed: &Bound<'py, PyAny>,
         response: &Bound<'py, PyAny>,
@@ -140,7 +183,7 @@ impl PyTimeConstantSearch {
         let response = slice_or_copy(&response);
         let columns = tau_columns(columns)?;
         let fixed = fixed.as_array();
-        let inner = &mut self.inner;
+        let inner = &self.inner;
         run_detached(py, || {
             let model = TrialModel {
                 fixed,
@@ -159,6 +202,16 @@ impl PyTimeConstantSearch {
     fn __repr__(&self) -> String {
         format!("TimeConstantSearch(n_rows={})", self.inner.n_rows())
     }
+}
+
+/// A search's best tau and its trials `(tau, score)` as an `(n_trials, 2)` array.
+fn found_pair<'py>(py: Python<'py>, found: &SearchResult) -> (f64, Bound<'py, PyArray2<f64>>) {
+    let mut trials = Array2::zeros((found.trials.len(), 2));
+    for (i, (tau, score)) in found.trials.iter().enumerate() {
+        trials[[i, 0]] = *tau;
+        trials[[i, 1]] = *score;
+    }
+    (found.best_tau_s, trials.into_pyarray(py))
 }
 
 /// The core's columns from their Python triples.
