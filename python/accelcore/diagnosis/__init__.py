@@ -41,6 +41,7 @@ Modules, along the data flow:
 - :mod:`~accelcore.diagnosis.result`: :class:`Diagnosis`, :class:`Step`, :class:`Structure`;
 - :mod:`~accelcore.diagnosis.tables`: the report's tables and text blocks (added effects,
   held-out error per axis, unexplained structure);
+- :mod:`~accelcore.diagnosis.scope`: the options checked, the families a quality finding rules out;
 - :mod:`~accelcore.diagnosis.selection`: the greedy selection and :func:`diagnose`.
 
 May import: foundation, input, model, result, fitting. Never outputs or apps (plots of

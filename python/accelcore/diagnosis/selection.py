@@ -12,7 +12,7 @@ error and its log ratio) is significant at ``alpha``. Each
 step adds the family with the largest total cut of held-out squared error over the axes
 that accept it, then revisits the lag of every axis, and repeats.
 
-The steps, in order: check the options (:func:`_check_options`), find the starting
+The steps, in order: check the options (:func:`.scope.check_options`), find the starting
 point in the model space (:func:`_starting_point`), cut the data
 (:class:`~accelcore.diagnosis.engine.Engine`), list the usable extra columns and the
 confounded effects, run the selection (:class:`_Selection`), fit the improved
@@ -30,7 +30,6 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-from accelcore.errors import ParameterError
 from accelcore.input.quality import QualityIssue, check_session
 from accelcore.input.session import Session
 from accelcore.model import AXES, Decay, RunStep
@@ -44,6 +43,7 @@ from .generic import TEMPERATURE_OBSERVABLES, generic_variants
 from .observables import STEADY_C_PER_MIN
 from .parameters import added_parameters, fit_models
 from .result import Diagnosis, Step
+from .scope import QUALITY_EXPLAINS, check_options, explained, not_explained_by
 from .search import confounding, variants
 from .space import FAMILIES, Spec, is_event, with_tau
 from .stats import accept, wrms
@@ -55,15 +55,6 @@ from .structure import (
 )
 
 __all__ = ["QUALITY_EXPLAINS", "diagnose"]
-
-#: Effect families each kind of data-quality finding
-#: (:func:`accelcore.input.quality.check_session`) could explain, and so are not
-#: tried when it is found: a run cut short holds only the start of the sweep, its lag
-#: state and temperature path unlike the other runs', so a lag fitted across the runs
-#: may only mirror the cut.
-QUALITY_EXPLAINS: Mapping[str, tuple[str, ...]] = {
-    "short": ("thermal_lag", "smooth:dtemp_dt_c_per_min", "smooth:elapsed_h")
-}
 
 #: A generic family (``smooth``) is chosen over the best named one only when it cuts
 #: the held-out squared error by this factor more: the named ones are its special
@@ -461,7 +452,7 @@ def diagnose(
     -----
     Never emits Python warnings; caveats are in :attr:`Diagnosis.warnings`.
     """
-    _check_options(families, max_steps, min_improvement, alpha)
+    check_options(families, max_steps, min_improvement, alpha)
     base, specs, notes = starting_point(session, calibration, t_ref_c, window_c)
     eng = Engine(
         session,
@@ -489,9 +480,9 @@ def diagnose(
             base.window_c if all(map(math.isfinite, base.window_c)) else "logged"
         )
         quality = check_session(session, window_c=window, warn=False)
-    tried, skipped = _not_explained_by(tried, quality)
+    tried, skipped = not_explained_by(tried, quality)
     warn += skipped
-    skip = {f.split(":", 1)[1] for f in _explained(quality) if f.startswith("smooth:")}
+    skip = {f.split(":", 1)[1] for f in explained(quality) if f.startswith("smooth:")}
     if span < MIN_TEMPERATURE_SPAN_C:
         skip |= set(TEMPERATURE_OBSERVABLES)
     rules = _Rules(
@@ -600,48 +591,3 @@ def _again_with_events(
             f"{', '.join(before) or 'none'})"
         )
     return again, again_eng
-
-
-def _explained(quality: Sequence[QualityIssue]) -> list[str]:
-    """Families (and ``smooth:OBSERVABLE``) that the session's findings could explain."""
-    kinds = {i.kind for i in quality}
-    return [f for kind, fams in QUALITY_EXPLAINS.items() if kind in kinds for f in fams]
-
-
-def _not_explained_by(
-    families: Sequence[str], quality: Sequence[QualityIssue]
-) -> tuple[list[str], list[str]]:
-    """Drop the families a quality finding could explain; one warning per finding kind."""
-    kept = list(families)
-    notes = []
-    for kind, explained in QUALITY_EXPLAINS.items():
-        found = [i for i in quality if i.kind == kind]
-        if not found:
-            continue
-        dropped = [f for f in explained if f in kept]
-        kept = [f for f in kept if f not in dropped]
-        if "smooth" in kept:
-            dropped += [
-                f"generic terms vs {f.split(':', 1)[1]}"
-                for f in explained
-                if f.startswith("smooth:")
-            ]
-        if not dropped:
-            continue
-        runs = sorted({i.run for i in found if i.run})
-        where = f" ({', '.join(runs)})" if runs else ""
-        notes.append(
-            f"data-quality finding '{kind}'{where} could explain {', '.join(dropped)}: "
-            "not tried (fix the data, or diagnose with quality=[] to try it anyway)"
-        )
-    return kept, notes
-
-
-def _check_options(
-    families: Sequence[str], max_steps: int, min_improvement: float, alpha: float
-) -> None:
-    unknown = [f for f in families if f not in FAMILIES]
-    if unknown:
-        raise ParameterError(f"unknown effect families {unknown}; available: {list(FAMILIES)}")
-    if max_steps < 0 or not 0 <= min_improvement < 1 or not 0 < alpha < 1:
-        raise ParameterError("max_steps >= 0, 0 <= min_improvement < 1 and 0 < alpha < 1 needed")
