@@ -13,12 +13,14 @@ event into the compensation of other data is wrong there.
 - :class:`OutputStep`: the part was knocked: a step of the offset at a given
   time into one run;
 - :class:`WarmUp`: after power-on at the start of a run, an offset that decays
-  exponentially.
+  exponentially;
+- :class:`TurnOnBias`: every run powers on with an offset of its own (the part's
+  turn-on repeatability): a scatter over the runs, no run an outlier.
 
 A run is named by its orientation label (``"OZ+"``); a session that repeats an
 orientation gets the event in every run of that orientation. None of the events
-draws from the random generator, so a session simulated with and without them
-(same seed) differs by the event alone.
+draws from the simulator's random generator (:class:`TurnOnBias` has its own seed),
+so a session simulated with and without them (same seed) differs by the event alone.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ import numpy.typing as npt
 
 from accelcore.simulate.chain import RunState, Stage
 
-__all__ = ["OutputStep", "RunTilt", "WarmUp", "rotation_matrix"]
+__all__ = ["OutputStep", "RunTilt", "TurnOnBias", "WarmUp", "rotation_matrix"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -236,3 +238,39 @@ class WarmUp:
         state.output = state.output + _mg_to_units(
             state, decay * _vec3(self.amplitude_mg, "amplitude_mg")
         )
+
+
+@dataclass(frozen=True)
+class TurnOnBias:
+    """Every run powers on with its own offset: normal, ``mg_sd`` per axis, drawn per run.
+
+    Datasheets give it as the bias' turn-on (run-to-run) repeatability. The offsets
+    come from a generator of their own, seeded by ``seed`` and the run's orientation
+    label, so the same session without the event differs by the offsets alone.
+
+    Parameters
+    ----------
+    mg_sd : float or 3 floats
+        Standard deviation of a run's offset per axis, mg.
+    seed : int
+        Seed of the offsets.
+    """
+
+    mg_sd: float | tuple[float, float, float] = 2.0
+    seed: int = 0
+
+    @property
+    def name(self) -> str:
+        """``"turn_on_bias"``."""
+        return "turn_on_bias"
+
+    @property
+    def stage(self) -> Stage:
+        """``"output"``."""
+        return "output"
+
+    def apply(self, state: RunState, rng: np.random.Generator) -> None:
+        """Add the run's offset to ``state.output``."""
+        key = [self.seed, *(ord(c) for c in state.orientation)]
+        offset = np.random.default_rng(key).normal(size=3) * _vec3(self.mg_sd, "mg_sd")
+        state.output = state.output + _mg_to_units(state, offset)

@@ -1,0 +1,56 @@
+"""Run levels that scatter over every run are not session events; one run off is."""
+
+from __future__ import annotations
+
+from accelcore import simulate
+from accelcore.diagnosis import Diagnosis, diagnose
+from accelcore.input.session import Session
+from accelcore.simulate import effects as se
+
+
+def session_of(sim: simulate.SimulatedArrays) -> Session:
+    return Session.from_arrays(
+        [(r.orientation, r.columns) for r in sim.runs],
+        units=sim.units,
+        rate_hz=sim.rate_hz,
+        sensor=sim.sensor,
+        decimation_factor=10,
+    )
+
+
+#: The validation bench's calibration profile: soak at -2 °C, up to 65 °C and back.
+PROFILE = {"t_start_c": -2.0, "t_end_c": 65.0, "soak_min": 10.0, "cool_back": True}
+
+
+def levels(d: Diagnosis) -> list[str]:
+    """The run levels fitted as session events."""
+    return sorted({e["event"] for e in d.session_events if e["event"].startswith("level of run")})
+
+
+def test_turn_on_scatter_is_not_taken_for_tilted_runs() -> None:
+    """Every run with its own offset (2 mg sd per axis): each run's level is far out
+    of its own noise, so each passes the level test; none stands out of the others,
+    so none is an event. (Before the outlier rule, four to six runs were.)"""
+    for seed in (3, 4):
+        sim = simulate.arrays(
+            "ADXL335",
+            seed=seed,
+            duration_h=0.5,
+            effects=(se.TurnOnBias(2.0, seed=seed),),
+            **PROFILE,  # type: ignore[arg-type]
+        )
+        d = diagnose(session_of(sim))
+        assert levels(d) == [], d.session_events
+
+
+def test_a_tilted_run_stands_out_of_a_turn_on_scatter() -> None:
+    """1.5 degrees of tilt (26 mg on y in OZ+) beside a 0.3 mg turn-on scatter."""
+    sim = simulate.arrays(
+        "ADXL335",
+        seed=5,
+        duration_h=0.5,
+        effects=(se.TurnOnBias(0.3, seed=5), se.RunTilt("OZ+", 1.5, "x")),
+        **PROFILE,  # type: ignore[arg-type]
+    )
+    d = diagnose(session_of(sim))
+    assert "level of run OZ+" in levels(d), d.session_events
