@@ -17,8 +17,12 @@ greedily by *held-out* error only:
 ``misalignment``
     gain terms on the other axes' gravity (cross-axis sensitivity; with six
     orientations, the full 3x3 sensitivity matrix);
+``nonlinearity``
+    an offset ``g_a^2`` (the output's second-order nonlinearity in the force, K2;
+    needs the axis at -1, 0 and +1 g);
 ``drift``
-    offset linear in the time since the run's start (``elapsed_h``);
+    offset, or own-axis sensitivity, linear in the time since the run's start
+    (``elapsed_h``);
 ``extra:NAME``
     offset linear in an extra logged column.
 
