@@ -1,49 +1,7 @@
-"""The calibration model: per axis, a list of named terms, linear in their coefficients.
+"""The bases of the model: observables (:class:`Features`) and named functions of them.
 
-The output of axis ``a`` (in session units) is modelled as::
-
-    v_a = Σ offset terms  c · B(features)  +  Σ gain terms  c · B(features) · g_b
-
-where ``g_b`` is the gravity (in g) on axis ``b`` that the run's orientation
-implies and ``B`` a *basis*: a named function of the sample's observables. The
-basis names are a small grammar, so a model can be saved, loaded and extended
-by later effects without new code paths. Each name is parsed once, where it
-enters (a :class:`Term`, a calibration file), into a typed :class:`Basis` value;
-code then asks the value what it is instead of splitting strings:
-
-``1`` (:class:`Constant`)
-    constant;
-``dT^k`` (:class:`TemperaturePower`)
-    ``(T - t_ref_c)^k``, °C^k (curvature for k >= 2);
-``lag(tau):dT^k`` (:class:`LaggedTemperaturePower`)
-    the same with the temperature passed through a first-order lag of
-    ``tau`` seconds (the die trailing the logged probe);
-``dTdt`` (:class:`TemperatureRate`)
-    rate of change of temperature, °C/min (causal, smoothed over 60 s);
-``elapsed_h`` (:class:`Elapsed`)
-    time since the start of the run, hours (drift);
-``extra:NAME`` (:class:`Extra`)
-    an extra logged column, minus its reference value stored in the model;
-``decay(tau)`` (:class:`Decay`)
-    ``exp(-t / tau)`` of the time since the start of the run, s (a warm-up after
-    power-on; a session event, never carried into a calibration);
-``step(RUN@t0)`` (:class:`RunStep`)
-    1 in run ``RUN`` from ``t0`` seconds into it on, else 0 (the part knocked
-    mid-run; a session event);
-``g_b^2`` (:class:`SquaredGravity`)
-    the square of the specific force on axis ``b``, g² (an offset in ``g_b^2`` is the
-    second-order nonlinearity of the output in the force, IEEE Std 1293's ``K2``
-    when ``b`` is the axis itself); read from the run's orientation when fitting, and
-    solved for with the force when compensating;
-``hinge(k):B`` (:class:`Hinge`)
-    ``max(B - k, 0)`` of one of the observables above (``dT^1``, ``dTdt``,
-    ``elapsed_h``, ``extra:NAME``) at a knot ``k`` in that basis' units: with the
-    observable's own line, a piecewise-linear (linear spline) function of it, the
-    diagnosis' generic term over anything logged.
-
-The base model of the seed paper is, on each axis, offset ``1``, ``dT^1`` and
-gain (own axis) ``1``, ``dT^1``: zero-g offset and sensitivity, each a line in
-temperature.
+One basis per design column (:class:`Basis` and its kinds). The grammar of their
+names is in :mod:`accelcore.model`.
 """
 
 from __future__ import annotations
@@ -51,9 +9,9 @@ from __future__ import annotations
 import math
 import re
 from abc import ABC, abstractmethod
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import ClassVar, Literal
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -63,8 +21,6 @@ from accelcore.constants import AXES, DTDT_SMOOTHING_S
 from accelcore.errors import ParameterError
 
 __all__ = [
-    "AXES",
-    "DTDT_SMOOTHING_S",
     "Basis",
     "Constant",
     "Decay",
@@ -77,11 +33,6 @@ __all__ = [
     "SquaredGravity",
     "TemperaturePower",
     "TemperatureRate",
-    "Term",
-    "base_terms",
-    "design_columns",
-    "evaluate_basis",
-    "full_gain_terms",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -498,151 +449,3 @@ class SquaredGravity(Basis):
                 f"the model term basis {self.name!r} needs the specific force (gravity_g)"
             )
         return self.at_gravity(features.gravity_g, len(features))
-
-
-# ---------------------------------------------------------------------- terms
-@dataclass(frozen=True)
-class Term:
-    """One named term of an axis model.
-
-    Parameters
-    ----------
-    kind : {"offset", "gain"}
-        An offset term adds ``c·B``; a gain term adds ``c·B·g_source``.
-    basis : Basis or str
-        The basis (a name in the module's grammar is parsed once, here).
-    source : str or None
-        For gain terms, the axis whose gravity it multiplies (own axis:
-        sensitivity; another axis: misalignment or cross-axis sensitivity).
-    effect : str
-        The effect that introduced the term (``base``, ``curvature``, ...).
-    """
-
-    kind: Literal["offset", "gain"]
-    basis: Basis
-    source: str | None = None
-    effect: str = "base"
-
-    def __init__(
-        self,
-        kind: Literal["offset", "gain"],
-        basis: Basis | str,
-        source: str | None = None,
-        effect: str = "base",
-    ) -> None:
-        if kind != "offset" and kind != "gain":
-            raise ParameterError(f"unknown term kind {kind!r}")
-        if kind == "gain" and source not in AXES:
-            raise ParameterError(f"a gain term needs a source axis x, y or z, got {source!r}")
-        object.__setattr__(self, "kind", kind)
-        object.__setattr__(self, "basis", Basis.parse(basis))
-        object.__setattr__(self, "source", source if kind == "gain" else None)
-        object.__setattr__(self, "effect", effect)
-
-    @property
-    def name(self) -> str:
-        """Readable name, e.g. ``offset·dT^1`` or ``gain[y]·1``."""
-        if self.kind == "offset":
-            return f"offset·{self.basis}"
-        return f"gain[{self.source}]·{self.basis}"
-
-    def column(self, basis_values: FloatArray, gravity_g: FloatArray) -> FloatArray:
-        """Return the design column: the basis values, times gravity in g (3,) or (n, 3) if gain."""
-        if self.kind == "offset":
-            return basis_values
-        g = np.asarray(gravity_g)
-        return basis_values * g[..., AXES.index(self.source or "x")]
-
-    def to_dict(self) -> dict[str, str | None]:
-        """Plain-data form for JSON."""
-        return {
-            "kind": self.kind,
-            "basis": self.basis.name,
-            "source": self.source,
-            "effect": self.effect,
-        }
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, object]) -> Term:
-        """Inverse of :meth:`to_dict` (the basis name is checked against the grammar)."""
-        kind = data["kind"]
-        if kind != "offset" and kind != "gain":
-            raise ParameterError(f"unknown term kind {kind!r}")
-        source = data.get("source")
-        return cls(
-            kind=kind,
-            basis=str(data["basis"]),
-            source=None if source is None else str(source),
-            effect=str(data.get("effect", "base")),
-        )
-
-
-def base_terms(axis: str) -> tuple[Term, ...]:
-    """Return the seed paper's model of one axis: offset and sensitivity, linear in T."""
-    return (
-        Term("offset", Constant()),
-        Term("offset", TemperaturePower(1)),
-        Term("gain", Constant(), source=axis),
-        Term("gain", TemperaturePower(1), source=axis),
-    )
-
-
-def full_gain_terms(axis: str) -> tuple[Term, ...]:
-    """Return the default joint model of one axis: the seed paper's, plus cross-axis gain.
-
-    The offset and own-axis sensitivity linear in T (:func:`base_terms`), then a
-    constant gain on each other axis' gravity (misalignment and cross-axis
-    sensitivity: the full 3x3 gain, as multi-position calibrators fit it). With
-    fewer than six orientations the fit holds what the runs cannot identify at 0
-    and lists it in ``Calibration.not_identified``.
-    """
-    cross = tuple(Term("gain", Constant(), source=b) for b in AXES if b != axis)
-    return (*base_terms(axis), *cross)
-
-
-def evaluate_basis(
-    basis: Basis | str, features: Features, references: Mapping[str, float] | None = None
-) -> FloatArray:
-    """Evaluate one basis on a stretch of samples.
-
-    Parameters
-    ----------
-    basis : Basis or str
-        The basis, or its name (module docs).
-    features : Features
-        The samples' observables.
-    references : mapping, optional
-        Reference value of each ``extra:NAME`` basis (subtracted).
-
-    Returns
-    -------
-    ndarray of float64
-    """
-    return Basis.parse(basis).evaluate(features, references)
-
-
-def design_columns(
-    terms: Sequence[Term],
-    features: Features,
-    gravity_g: FloatArray,
-    references: Mapping[str, float] | None = None,
-) -> FloatArray:
-    """Design matrix of one axis over a stretch with constant gravity ``gravity_g`` (3,).
-
-    Returns
-    -------
-    ndarray of float64, shape (n, len(terms))
-    """
-    n = len(features)
-    out = np.empty((n, len(terms)))
-    cache: dict[Basis, FloatArray] = {}
-    for j, term in enumerate(terms):
-        if term.basis not in cache:
-            basis = term.basis
-            if isinstance(basis, SquaredGravity):
-                # The force of the stretch, not an estimate the features may carry.
-                cache[basis] = basis.at_gravity(gravity_g, n)
-            else:
-                cache[basis] = basis.evaluate(features, references)
-        out[:, j] = term.column(cache[term.basis], gravity_g)
-    return out
