@@ -1,4 +1,4 @@
-"""Comparison helpers shared by the kernel tests.
+"""Helpers shared by the tests: comparisons for the kernel tests, simulated sessions.
 
 Every tolerance used to compare the Rust kernels with the reference lives
 here, next to the reasoning that sets it.
@@ -13,7 +13,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 import accelcore
-from accelcore import reference
+from accelcore import reference, simulate
+from accelcore.input.session import Session
 
 FloatArray = NDArray[np.float64]
 T = TypeVar("T")
@@ -283,3 +284,14 @@ def assert_solution_matches(
         value = float(getattr(expected, name))
         rtol = 1e-8 + LSTSQ_SAFETY * EPS * value
         np.testing.assert_allclose(getattr(rust, name), value, rtol=rtol, err_msg=name)
+
+
+def simulated_session(sim: simulate.SimulatedArrays, decimation_factor: int = 10) -> Session:
+    """The session of simulated runs (20 Hz averaged to 2 Hz by default), in memory."""
+    return Session.from_arrays(
+        [(r.orientation, r.columns) for r in sim.runs],
+        units=sim.units,
+        rate_hz=sim.rate_hz,
+        sensor=sim.sensor,
+        decimation_factor=decimation_factor,
+    )

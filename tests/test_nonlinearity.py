@@ -10,7 +10,6 @@ import pytest
 from accelcore import calibrate, simulate
 from accelcore.diagnosis import diagnose
 from accelcore.errors import ParameterError
-from accelcore.input.session import Session
 from accelcore.model import (
     AXES,
     Basis,
@@ -21,18 +20,9 @@ from accelcore.model import (
     full_gain_terms,
 )
 from accelcore.simulate import effects as se
+from helpers import simulated_session
 
 K2_MG_PER_G2 = (4.0, -3.0, 5.0)
-
-
-def session_of(sim: simulate.SimulatedArrays) -> Session:
-    return Session.from_arrays(
-        [(r.orientation, r.columns) for r in sim.runs],
-        units=sim.units,
-        rate_hz=sim.rate_hz,
-        sensor=sim.sensor,
-        decimation_factor=10,
-    )
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +55,7 @@ def test_the_basis_is_named_parsed_and_read_from_the_force() -> None:
 
 def test_a_fit_with_the_term_recovers_k2(nonlinear: simulate.SimulatedArrays) -> None:
     terms = {a: (*full_gain_terms(a), Term("offset", f"g_{a}^2")) for a in AXES}
-    cal = calibrate(session_of(nonlinear), terms=terms)
+    cal = calibrate(simulated_session(nonlinear), terms=terms)
     for i, a in enumerate(AXES):
         m = cal.axes[a]
         value, se = m.value("offset", f"g_{a}^2")
@@ -84,7 +74,7 @@ def test_compensation_solves_for_the_force_of_a_quadratic_model(
     pass shrinks the error by about 2 K2 |g| / S (1e-2 here), so it settles at the
     passes' tolerance (1e-12 g); the 3x3 solve adds a few ulps."""
     terms = {a: (*full_gain_terms(a), Term("offset", f"g_{a}^2")) for a in AXES}
-    cal = calibrate(session_of(nonlinear), terms=terms)
+    cal = calibrate(simulated_session(nonlinear), terms=terms)
     rng = np.random.default_rng(5)
     n = 64
     g = rng.uniform(-1.5, 1.5, size=(n, 3))
@@ -107,7 +97,7 @@ def test_compensation_solves_for_the_force_of_a_quadratic_model(
 def test_the_diagnosis_adds_k2_and_reports_it_in_mg_per_g2(
     nonlinear: simulate.SimulatedArrays,
 ) -> None:
-    d = diagnose(session_of(nonlinear))
+    d = diagnose(simulated_session(nonlinear))
     assert "nonlinearity" in d.effects, d.effects
     step = next(s for s in d.steps if s.effect == "nonlinearity")
     assert set(step.axes) == set(AXES)

@@ -4,19 +4,8 @@ from __future__ import annotations
 
 from accelcore import simulate
 from accelcore.diagnosis import Diagnosis, diagnose
-from accelcore.input.session import Session
 from accelcore.simulate import effects as se
-
-
-def session_of(sim: simulate.SimulatedArrays) -> Session:
-    return Session.from_arrays(
-        [(r.orientation, r.columns) for r in sim.runs],
-        units=sim.units,
-        rate_hz=sim.rate_hz,
-        sensor=sim.sensor,
-        decimation_factor=10,
-    )
-
+from helpers import simulated_session
 
 #: The validation bench's calibration profile: soak at -2 °C, up to 65 °C and back.
 PROFILE = {"t_start_c": -2.0, "t_end_c": 65.0, "soak_min": 10.0, "cool_back": True}
@@ -39,7 +28,7 @@ def test_turn_on_scatter_is_not_taken_for_tilted_runs() -> None:
             effects=(se.TurnOnBias(2.0, seed=seed),),
             **PROFILE,  # type: ignore[arg-type]
         )
-        d = diagnose(session_of(sim))
+        d = diagnose(simulated_session(sim))
         assert levels(d) == [], d.session_events
 
 
@@ -52,5 +41,5 @@ def test_a_tilted_run_stands_out_of_a_turn_on_scatter() -> None:
         effects=(se.TurnOnBias(0.3, seed=5), se.RunTilt("OZ+", 1.5, "x")),
         **PROFILE,  # type: ignore[arg-type]
     )
-    d = diagnose(session_of(sim))
+    d = diagnose(simulated_session(sim))
     assert "level of run OZ+" in levels(d), d.session_events

@@ -38,7 +38,7 @@ from accelcore._accelcore import first_order_lag
 from accelcore.core import BlockedLeastSquares, FoldedLeastSquares, HeldOutFit
 from accelcore.errors import InsufficientDataError
 from accelcore.fitting.calibrate import CutFeatures, Stacked, block_weights
-from accelcore.input.records import records
+from accelcore.input.records import record_names, records
 from accelcore.input.session import Session
 from accelcore.model import (
     AXES,
@@ -82,21 +82,10 @@ class Engine:
         # ``corrections``: per part (in the order parts are cut), what to take off
         # the output first (session events fitted on an earlier pass), session units.
         self.session = session
-        self.folds_asked, self.block_s, self.steady_c_per_min = folds, block_s, steady_c_per_min
+        self._settings = (folds, block_s, steady_c_per_min, max_order)
         # Contiguous pieces of one log are one record: folds never follow file cuts.
         self.records = records(session)
-        # A name of each record that does not depend on file names: its orientation,
-        # numbered when the orientation has several records.
-        counts: dict[str, int] = {}
-        for rec in self.records:
-            counts[rec.orientation] = counts.get(rec.orientation, 0) + 1
-        seen: dict[str, int] = {}
-        self.record_names: list[str] = []
-        for rec in self.records:
-            seen[rec.orientation] = seen.get(rec.orientation, 0) + 1
-            several = counts[rec.orientation] > 1
-            name = f"{rec.orientation} #{seen[rec.orientation]}" if several else rec.orientation
-            self.record_names.append(name)
+        self.record_names = record_names(self.records)
         self.t_ref_c = base.t_ref_c
         window = None if not np.all(np.isfinite(base.window_c)) else base.window_c
         self.references = dict(base.references)
@@ -298,6 +287,19 @@ class Engine:
         # or per observable of the generic family (("generic", name)).
         self._wide: dict[_CatalogueName, tuple[dict[_Key, int], FoldedLeastSquares]] = {}
         self._push_catalogue(None)
+
+    def less(self, corrections: Sequence[FloatArray]) -> Engine:
+        """Return the engine of this session and settings on the output less ``corrections``."""
+        folds, block_s, steady, order = self._settings
+        return Engine(
+            self.session,
+            self.base,
+            folds=folds,
+            block_s=block_s,
+            steady_c_per_min=steady,
+            max_order=order,
+            corrections=corrections,
+        )
 
     def compress(self, values: FloatArray) -> FloatArray:
         """Return the weighted mean of ``values`` (one per sample) in every window."""

@@ -168,44 +168,40 @@ def _best_level(
     alpha: float,
 ) -> tuple[str, Spec, str] | None:
     """Return the run level that cuts an axis' residual most, if it passes the test."""
-    n_tests = sum(1 for a in AXES for idx in runs if abs(eng.gravity[idx[0], AXES.index(a)]) < 0.5)
-    resids = {a: eng.residuals(a, specs[a].terms(a))[0] for a in AXES}
-    levels = {
-        (a, i): _level_mg(eng, resids[a], idx)
+    # Every (axis, run) where the axis reads 0 g: the levels tried, and the tests counted.
+    zero_g = [
+        (a, i)
         for a in AXES
         for i, idx in enumerate(runs)
         if abs(eng.gravity[idx[0], AXES.index(a)]) < 0.5
-    }
+    ]
+    n_tests = len(zero_g)
+    base = {a: eng.cv(a, specs[a].terms(a)) for a in AXES}
+    resids = {a: eng.residuals(a, specs[a].terms(a))[0] for a in AXES}
+    levels_mg = {(a, i): _level_mg(eng, resids[a], runs[i]) for a, i in zero_g}
     best: tuple[float, float, str, Spec, str] | None = None
-    for a in AXES:
-        a_i = AXES.index(a)
-        spec = specs[a]
-        base = eng.cv(a, spec.terms(a))
-        resid = resids[a]
-        for i, (idx, label) in enumerate(zip(runs, labels, strict=True)):
-            if abs(eng.gravity[idx[0], a_i]) >= 0.5:
-                continue
-            effect = f"{EVENT_PREFIX}level of run {label}"
-            if any(t.effect == effect for t in spec.events):
-                continue
-            if not _stands_out(levels, (a, i)):
-                continue
-            if not _level_passes(eng, resid, idx, n_tests, alpha):
-                continue
-            term = Term("offset", RunStep(label, 0.0), effect=effect)
-            trial = replace(spec, events=(*spec.events, term))
-            cut = base.sse_in - eng.cv(a, trial.terms(a)).sse_in
-            fit = eng.fit(a, trial.terms(a))
-            free = eng.free_terms(a, trial.terms(a))
-            l1 = sum(
-                abs(float(c))
-                for t, c in zip(free, fit.beta_in, strict=True)
-                if t.effect == effect
-                or (t.kind == "gain" and t.source != a and t.basis == Constant())
-            )
-            key = (round(cut, 6), -l1)
-            if best is None or key > (best[0], best[1]):
-                best = (key[0], key[1], a, trial, effect)
+    for a, i in zero_g:
+        spec, idx, label = specs[a], runs[i], labels[i]
+        effect = f"{EVENT_PREFIX}level of run {label}"
+        if any(t.effect == effect for t in spec.events):
+            continue
+        if not _stands_out(levels_mg, (a, i)):
+            continue
+        if not _level_passes(eng, resids[a], idx, n_tests, alpha):
+            continue
+        term = Term("offset", RunStep(label, 0.0), effect=effect)
+        trial = replace(spec, events=(*spec.events, term))
+        cut = base[a].sse_in - eng.cv(a, trial.terms(a)).sse_in
+        fit = eng.fit(a, trial.terms(a))
+        free = eng.free_terms(a, trial.terms(a))
+        l1 = sum(
+            abs(float(c))
+            for t, c in zip(free, fit.beta_in, strict=True)
+            if t.effect == effect or (t.kind == "gain" and t.source != a and t.basis == Constant())
+        )
+        key = (round(cut, 6), -l1)
+        if best is None or key > (best[0], best[1]):
+            best = (key[0], key[1], a, trial, effect)
     if best is None or best[0] <= 0:
         return None
     return best[2], best[3], best[4]

@@ -92,11 +92,11 @@ def added_parameters(
                 else:
                     unit = f"mg/°C^{order}" if order is not None else "mg/unit"
                 factor = 1000.0 / s
-            elif t.source == a and isinstance(t.basis, Elapsed):
-                unit = "%/h"
-                factor = 100.0 / s
             elif t.source == a:
-                unit = f"%/{per}" if per is not None else f"%/°C^{order or ''}"
+                if isinstance(t.basis, Elapsed):
+                    unit = "%/h"
+                else:
+                    unit = f"%/{per}" if per is not None else f"%/°C^{order or ''}"
                 factor = 100.0 / s
             else:
                 unit = "deg" if per is None else f"deg/{per}"

@@ -287,24 +287,17 @@ class _Selection:
 
     def _revisit_lags(self) -> None:
         """Search again the lag of every axis that has one (variant and tau), keep the better."""
-        bare_specs = {
+        bare = {
             a: replace(s, tau=None, rate_tau=None)
             for a, s in self.specs.items()
             if s.tau is not None or s.rate_tau is not None
         }
-        search.search_many(
-            self.eng,
-            [(a, partial(with_tau, s, v)) for a, s in bare_specs.items() for v in ("die", "rate")],
-            self.rules.tau_range_s,
-        )
-        for a in AXES:
-            if self.specs[a].tau is None and self.specs[a].rate_tau is None:
-                continue
-            bare = replace(self.specs[a], tau=None, rate_tau=None)
-            for variant in ("die", "rate"):
-                tau, cv = search.search_tau(self.eng, a, bare, self.rules.tau_range_s, variant)
-                if cv.rms_out < self.cv_cur[a].rms_out * 0.999:
-                    self.specs[a], self.cv_cur[a] = with_tau(bare, variant, tau), cv
+        tried = [(a, partial(with_tau, s, v)) for a, s in bare.items() for v in ("die", "rate")]
+        search.search_many(self.eng, tried, self.rules.tau_range_s)
+        for a, make in tried:
+            tau, cv = search.search_1d(self.eng, a, make, self.rules.tau_range_s)
+            if cv.rms_out < self.cv_cur[a].rms_out * 0.999:
+                self.specs[a], self.cv_cur[a] = make(tau), cv
 
     def _step(
         self, index: int, effect: str, chosen: Sequence[Candidate], params: list[dict[str, Any]]
@@ -569,15 +562,7 @@ def _again_with_events(
                 if is_event(t.effect) and isinstance(t.basis, RunStep) and coef != 0.0:
                     c[:, i] += coef * t.basis.evaluate(f)
         corrections.append(c)
-    again_eng = Engine(
-        eng.session,
-        eng.base,
-        folds=eng.folds_asked,
-        block_s=eng.block_s,
-        steady_c_per_min=eng.steady_c_per_min,
-        max_order=eng.max_order,
-        corrections=corrections,
-    )
+    again_eng = eng.less(corrections)
     again = _Selection(again_eng, dict(start), rules)
     again.run(max_steps)
     again.session_events = first.session_events

@@ -19,7 +19,7 @@ import numpy as np
 
 from accelcore.input.session import Run, RunStats, Session
 
-__all__ = ["CONTIGUOUS_BLOCKS", "records"]
+__all__ = ["CONTIGUOUS_BLOCKS", "record_names", "records"]
 
 #: Two runs continue one record when the second starts at most this many block
 #: intervals (the median spacing of either run's decimated blocks) after the first ends.
@@ -127,3 +127,20 @@ def records(session: Session) -> tuple[Run, ...]:
             groups.append([i])
     groups.sort(key=lambda g: min(g))
     return tuple(_join([session.runs[i] for i in g]) for g in groups)
+
+
+def record_names(recs: Sequence[Run]) -> list[str]:
+    """Return a name of each record that does not depend on file names.
+
+    Its orientation, numbered (``"OZ- #2"``) when the orientation has several records.
+    """
+    counts: dict[str, int] = {}
+    for rec in recs:
+        counts[rec.orientation] = counts.get(rec.orientation, 0) + 1
+    seen: dict[str, int] = {}
+    names: list[str] = []
+    for rec in recs:
+        seen[rec.orientation] = seen.get(rec.orientation, 0) + 1
+        several = counts[rec.orientation] > 1
+        names.append(f"{rec.orientation} #{seen[rec.orientation]}" if several else rec.orientation)
+    return names

@@ -111,6 +111,14 @@ class Basis(ABC):
     ) -> FloatArray:
         """Value at every sample of ``features`` (float64, one per sample)."""
 
+    def at_gravity(self, gravity_g: FloatArray, n: int) -> FloatArray:
+        """Value at ``n`` samples of specific force ``gravity_g`` (g, (3,) or (n, 3)).
+
+        Only for a basis of the force (:attr:`needs_gravity`); fitting reads it from
+        the orientation, compensation from its estimate of the force.
+        """
+        raise ParameterError(f"the basis {self.name!r} does not depend on the force")
+
     @property
     def temperature_order(self) -> int | None:
         """``k`` of a ``(T - t_ref)^k`` basis (lagged or not), else None."""
@@ -436,8 +444,7 @@ class SquaredGravity(Basis):
     def name(self) -> str:  # noqa: D102
         return f"g_{self.axis}^2"
 
-    def at_gravity(self, gravity_g: FloatArray, n: int) -> FloatArray:
-        """Value at ``n`` samples of specific force ``gravity_g`` (g, shape (3,) or (n, 3))."""
+    def at_gravity(self, gravity_g: FloatArray, n: int) -> FloatArray:  # noqa: D102
         g = np.asarray(gravity_g, dtype=np.float64)[..., AXES.index(self.axis)]
         return np.broadcast_to(g * g, (n,)).astype(np.float64)
 

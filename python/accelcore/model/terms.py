@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from accelcore.constants import AXES
 from accelcore.errors import ParameterError
 
-from .bases import Basis, Constant, Features, SquaredGravity, TemperaturePower
+from .bases import Basis, Constant, Features, TemperaturePower
 
 __all__ = ["Term", "base_terms", "design_columns", "evaluate_basis", "full_gain_terms"]
 
@@ -157,7 +157,7 @@ def design_columns(
     for j, term in enumerate(terms):
         if term.basis not in cache:
             basis = term.basis
-            if isinstance(basis, SquaredGravity):
+            if basis.needs_gravity:
                 # The force of the stretch, not an estimate the features may carry.
                 cache[basis] = basis.at_gravity(gravity_g, n)
             else:

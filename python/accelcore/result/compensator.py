@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 from accelcore._accelcore import compensate as _compensate
 from accelcore._accelcore import first_order_lag
 from accelcore.errors import ParameterError, TemperatureRangeWarning
-from accelcore.model import Basis, Features, Hinge, SquaredGravity, TemperatureRate
+from accelcore.model import Basis, Features, Hinge, TemperatureRate
 
 __all__ = ["Compensator", "needs_temperature"]
 
@@ -139,7 +139,7 @@ class Compensator:
         )
         feats.carried = self._carried
         n = raw_a.shape[0]
-        forced = [(j, b) for j, b in enumerate(self._bases) if isinstance(b, SquaredGravity)]
+        forced = [(j, b) for j, b in enumerate(self._bases) if b.needs_gravity]
         # Bases of the force itself (g_b^2) are first read at 0 g; the force solved
         # with them is then fed back until it settles (a fixed point: the terms are
         # small beside the sensitivity, so each pass shrinks the error by their ratio).
