@@ -56,7 +56,7 @@ from accelcore.model import (
 from accelcore.result.calibration import AxisModel, Calibration, nominal_sensitivity
 
 from .fits import CV, Fit
-from .folds import choose_folds
+from .folds import choose_folds, cut_blocks
 from .observables import leg_labels, rate_c_per_min
 from .windows import choose_windows
 
@@ -161,26 +161,9 @@ class Engine:
             for name in session.extra_columns
         }
         self._basis_cache: dict[Basis, FloatArray] = {}
-        # Blocks: contiguous stretches of at most block_s inside one part, and at least
-        # MIN_BLOCKS_PER_PART of them where the part holds the samples (a static hold of
-        # a few seconds still gets blocks, so folds, inside it).
-        starts: list[int] = []
-        block_part: list[int] = []
-        for p, f in enumerate(feats):
-            t = np.asarray(f.time_s)
-            length = block_s
-            if t.size >= 2 * MIN_BLOCKS_PER_PART and t[-1] > t[0]:
-                # Sample times are block centres: the part spans one interval more.
-                span = (t[-1] - t[0]) * t.size / (t.size - 1)
-                length = min(block_s, span / MIN_BLOCKS_PER_PART)
-            chunk = np.floor((t - t[0]) / length * (1 - 1e-9)).astype(np.int64)
-            edges = np.flatnonzero(np.diff(chunk)) + 1
-            b0 = [0, *edges.tolist()]
-            # Merge a short last chunk into the one before it.
-            if len(b0) > 1 and (t[-1] - t[b0[-1]]) < 0.5 * length:
-                b0 = b0[:-1]
-            starts += [int(self.part_start[p]) + s for s in b0]
-            block_part += [p] * len(b0)
+        starts, block_part = cut_blocks(
+            [np.asarray(f.time_s) for f in feats], self.part_start, block_s
+        )
         self.block_start = np.asarray(starts, dtype=np.int64)
         self.block_part = np.asarray(block_part, dtype=np.int64)
         self.block_stop = np.append(self.block_start[1:], self.n)
@@ -265,6 +248,8 @@ class Engine:
                 self.sample_block, weights=self.w * dev * dev, minlength=self.block_start.size
             ).astype(np.float64)
         self._memo: dict[tuple[str, tuple[_Key, ...]], HeldOutFit] = {}
+        self._fixed_keys = {a: {_loose_key(t) for t, _ in self.fixed[a]} for a in AXES}
+        self._free: dict[tuple[str, tuple[Term, ...]], tuple[Term, ...]] = {}
         #: Full fits of axis models on every sample (:func:`.parameters.fit_models`).
         self.fitted: dict[tuple[str, tuple[Term, ...]], tuple[AxisModel, list[str], list[str]]] = {}
         self.max_order = max_order
@@ -349,12 +334,15 @@ class Engine:
 
     def free_terms(self, axis: str, terms: Sequence[Term]) -> tuple[Term, ...]:
         """Terms minus those the base held fixed (matched ignoring lag)."""
-
-        def key(t: Term) -> tuple[str, Basis, str | None]:
-            return t.kind, t.basis.without_lag(), t.source if t.kind == "gain" else None
-
-        fixed = {key(t) for t, _ in self.fixed[axis]}
-        return tuple(t for t in terms if key(t) not in fixed)
+        memo_key = (axis, tuple(terms))
+        found = self._free.get(memo_key)
+        if found is None:
+            fixed = self._fixed_keys[axis]
+            found = tuple(t for t in terms if _loose_key(t) not in fixed)
+            if len(self._free) >= 4 * self.memo_size:
+                self._free.clear()
+            self._free[memo_key] = found
+        return found
 
     def design(self, axis: str, terms: Sequence[Term]) -> FloatArray:
         """Return the design of the free terms of an axis model, one row per sample."""
@@ -518,25 +506,27 @@ class Engine:
     def fit(self, axis: str, terms: Sequence[Term]) -> Fit:
         """Fit the free terms of ``terms`` on every fold's training data and on all data."""
         keys = self._keys(axis, terms)
-        x = np.column_stack([self._key_column(k) for k in keys]) if keys else np.zeros((self.n, 0))
+        columns = tuple(self._key_column(k) for k in keys)
         held = self._heldout(axis, keys)
         if held is None:
             y, w = self.y[axis], self.w
-            return Fit(x, np.zeros(0), np.zeros((self.n_folds, 0)), float((w * y * y).sum()))
+            return Fit(columns, np.zeros(0), np.zeros((self.n_folds, 0)), float((w * y * y).sum()))
         beta_in = np.asarray(held.coefficients, dtype=np.float64)
         beta_fold = np.zeros((self.n_folds, beta_in.size))
         beta_fold[: held.fold_coefficients.shape[0]] = held.fold_coefficients
         # A fold without a weighted row leaves every row for training: the fit on all data.
         beta_fold[np.isnan(beta_fold).any(axis=1)] = beta_in
         within = float(self._within[axis].sum())
-        return Fit(x, beta_in, beta_fold, float(held.in_sample_rss) + within)
+        return Fit(columns, beta_in, beta_fold, float(held.in_sample_rss) + within)
 
     def heldout_residuals(self, y: FloatArray, fit: Fit) -> FloatArray:
         """Residual of every sample under the fit that held its fold out, mg."""
+        if not fit.columns:
+            return y.copy()
         r_out = np.empty(self.n)
         for k, spans in enumerate(self.fold_spans):
             for s, e in spans:
-                r_out[s:e] = y[s:e] - fit.x[s:e] @ fit.beta_fold[k]
+                r_out[s:e] = y[s:e] - fit.fitted(fit.beta_fold[k], s, e)
         return r_out
 
     def cv(self, axis: str, terms: Sequence[Term]) -> CV:
@@ -568,7 +558,8 @@ class Engine:
         if found is None:
             fit = self.fit(axis, terms)
             y = self.y[axis]
-            found = (y - fit.x @ fit.beta_in, self.heldout_residuals(y, fit))
+            r_in = y - fit.fitted(fit.beta_in) if fit.columns else y.copy()
+            found = (r_in, self.heldout_residuals(y, fit))
             for r in found:
                 r.flags.writeable = False
             if len(self._residuals) >= 4 * len(AXES):
@@ -586,11 +577,13 @@ _CatalogueName = tuple[str, float | str] | None
 #: Rows a coarse search trial (:meth:`Engine.cv_coarse`) aims at.
 COARSE_ROWS = 4_000
 
-#: Fewest held-out blocks a part (run x leg) is cut into when it holds the samples.
-MIN_BLOCKS_PER_PART = 3
-
 #: Most columns of one least-squares problem in the core.
 _MAX_COLUMNS = 64
+
+
+def _loose_key(term: Term) -> tuple[str, Basis, str | None]:
+    """Return what matches a term to a fixed one: kind, basis without its lag, gain source."""
+    return term.kind, term.basis.without_lag(), term.source if term.kind == "gain" else None
 
 
 def _key(term: Term) -> _Key:

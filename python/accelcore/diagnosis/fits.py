@@ -43,8 +43,9 @@ class Fit:
 
     Attributes
     ----------
-    x : ndarray, shape (n, p)
-        Design of the free terms, one row per sample.
+    columns : tuple of ndarray, each shape (n,)
+        Design column of each free term, one value per sample (not stacked: the
+        fitted values are built column by column, see :meth:`fitted`).
     beta_in : ndarray, shape (p,)
         Fit on every sample.
     beta_fold : ndarray, shape (n_folds, p)
@@ -53,10 +54,30 @@ class Fit:
         Weighted residual sum of squares of ``beta_in``, mg².
     """
 
-    x: FloatArray
+    columns: tuple[FloatArray, ...]
     beta_in: FloatArray
     beta_fold: FloatArray
     rss_in: float
+
+    @property
+    def x(self) -> FloatArray:
+        """Return the design, shape (n, p) (stacked on demand)."""
+        if not self.columns:
+            return np.zeros((0, 0))
+        return np.column_stack(self.columns)
+
+    def fitted(self, beta: FloatArray, start: int = 0, stop: int | None = None) -> FloatArray:
+        """Return the design times ``beta`` on the samples ``start:stop``."""
+        out: FloatArray | None = None
+        for col, b in zip(self.columns, beta, strict=True):
+            part = col[start:stop] * b
+            if out is None:
+                out = part
+            else:
+                out += part
+        if out is None:
+            return np.zeros(0)
+        return out
 
 
 def _solve(

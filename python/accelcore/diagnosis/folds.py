@@ -18,12 +18,44 @@ from numpy.typing import NDArray
 
 from accelcore.errors import ParameterError
 
-__all__ = ["SCHEMES", "choose_folds"]
+__all__ = ["MIN_BLOCKS_PER_PART", "SCHEMES", "choose_folds", "cut_blocks"]
 
 IntArray = NDArray[np.int64]
 
 #: The fold schemes ``folds=`` may name.
 SCHEMES = ("auto", "runs", "legs", "blocks")
+
+#: Fewest held-out blocks a part (run x leg) is cut into when it holds the samples.
+MIN_BLOCKS_PER_PART = 3
+
+
+def cut_blocks(
+    times_s: Sequence[NDArray[np.float64]], part_start: IntArray, block_s: float
+) -> tuple[list[int], list[int]]:
+    """Cut parts into blocks: first sample and part of each block.
+
+    A block is a contiguous stretch of at most ``block_s`` inside one part (its
+    samples' times ``times_s[p]``, starting at sample ``part_start[p]``), and a part
+    holding the samples gets at least :data:`MIN_BLOCKS_PER_PART` of them (a static
+    hold of a few seconds still gets blocks, so folds, inside it).
+    """
+    starts: list[int] = []
+    block_part: list[int] = []
+    for p, t in enumerate(times_s):
+        length = block_s
+        if t.size >= 2 * MIN_BLOCKS_PER_PART and t[-1] > t[0]:
+            # Sample times are block centres: the part spans one interval more.
+            span = (t[-1] - t[0]) * t.size / (t.size - 1)
+            length = min(block_s, span / MIN_BLOCKS_PER_PART)
+        chunk = np.floor((t - t[0]) / length * (1 - 1e-9)).astype(np.int64)
+        edges = np.flatnonzero(np.diff(chunk)) + 1
+        b0 = [0, *edges.tolist()]
+        # Merge a short last chunk into the one before it.
+        if len(b0) > 1 and (t[-1] - t[b0[-1]]) < 0.5 * length:
+            b0 = b0[:-1]
+        starts += [int(part_start[p]) + s for s in b0]
+        block_part += [p] * len(b0)
+    return starts, block_part
 
 
 def choose_folds(

@@ -511,13 +511,16 @@ def confounding(
 ) -> list[Confounded]:
     """Pairs of effects whose signature columns correlate beyond ``threshold``."""
     found: dict[tuple[str, str], tuple[float, list[str]]] = {}
-    w = eng.w
+    # On the engine's window means (what its fits see): the columns' correlations to
+    # a few 1e-4, at a thirtieth of the rows.
+    w = eng.window_weight
     moves = temperature_span_c(eng) >= MIN_TEMPERATURE_SPAN_C
     # Every axis' signatures, each column once, with the axes it is a signature on.
-    sig: list[tuple[str, FloatArray, Sequence[str]]] = [("drift", eng.basis(Elapsed()), AXES)]
+    win = eng._window_column
+    sig: list[tuple[str, FloatArray, Sequence[str]]] = [("drift", win((Elapsed(), None)), AXES)]
     if moves:  # a temperature that does not move confounds nothing
-        t1, t2 = eng.basis(TemperaturePower(1)), eng.basis(TemperaturePower(2))
-        lag = eng.basis(LaggedTemperaturePower(_CONFOUND_TAU_S, 1)) - t1
+        t1, t2 = win((TemperaturePower(1), None)), win((TemperaturePower(2), None))
+        lag = win((LaggedTemperaturePower(_CONFOUND_TAU_S, 1), None)) - t1
         sig += [
             ("temperature (linear tempco)", t1, AXES),
             ("offset_curvature", t2, AXES),
@@ -526,11 +529,11 @@ def confounding(
     for b_i, b in enumerate(AXES):
         if eng.gravity_values[b_i] < 2:
             continue
-        g = eng.gravity[:, b_i]
+        g = eng.window_gravity[:, b_i]
         if moves:
-            sig.append(("sensitivity_curvature", t2 * g, (b,)))
+            sig.append(("sensitivity_curvature", win((TemperaturePower(2), b)), (b,)))
         sig.append((f"misalignment (gravity on {b})", g, [a for a in AXES if a != b]))
-    sig += [(f"extra:{e}", eng.basis(Extra(e)), AXES) for e in extras]
+    sig += [(f"extra:{e}", win((Extra(e), None)), AXES) for e in extras]
     # Weighted correlations of all of them from one product of the centred columns.
     cols = np.column_stack([col for _, col, _ in sig])
     cols = cols - (w @ cols) / w.sum()

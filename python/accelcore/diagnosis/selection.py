@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any, Literal
@@ -447,6 +448,16 @@ def diagnose(
     """
     check_options(families, max_steps, min_improvement, alpha)
     base, specs, notes = starting_point(session, calibration, t_ref_c, window_c)
+    checked = None
+    if quality is None:
+        # The data-quality checks read the session only: on another thread, beside the
+        # engine's set-up (both spend most of their time in the core and NumPy).
+        window: tuple[float, float] | Literal["logged"] = (
+            base.window_c if all(map(math.isfinite, base.window_c)) else "logged"
+        )
+        pool = ThreadPoolExecutor(max_workers=1)
+        checked = pool.submit(check_session, session, window_c=window, warn=False)
+        pool.shutdown(wait=False)
     eng = Engine(
         session,
         base,
@@ -468,14 +479,11 @@ def diagnose(
             f"the temperature spans {span:.2f} °C (less than {MIN_TEMPERATURE_SPAN_C:g} °C): no "
             "temperature-driven effect is tried or reported"
         )
-    if quality is None:
-        window: tuple[float, float] | Literal["logged"] = (
-            base.window_c if all(map(math.isfinite, base.window_c)) else "logged"
-        )
-        quality = check_session(session, window_c=window, warn=False)
-    tried, skipped = not_explained_by(tried, quality)
+    if checked is not None:
+        quality = checked.result()
+    tried, skipped = not_explained_by(tried, quality or ())
     warn += skipped
-    skip = {f.split(":", 1)[1] for f in explained(quality) if f.startswith("smooth:")}
+    skip = {f.split(":", 1)[1] for f in explained(quality or ()) if f.startswith("smooth:")}
     if span < MIN_TEMPERATURE_SPAN_C:
         skip |= set(TEMPERATURE_OBSERVABLES)
     rules = _Rules(

@@ -8,6 +8,7 @@ calibration's terms back into the space.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -102,41 +103,49 @@ class Spec:
 
     def terms(self, axis: str) -> tuple[Term, ...]:
         """Return the model terms of ``axis`` at this point, each tagged with its effect."""
-        out = [Term("offset", "1")]
-        for k in range(1, self.offset_order + 1):
-            eff = "base" if k == 1 else "offset_curvature"
-            out.append(Term("offset", self.temp_basis(k), effect=eff))
-        if self.rate_tau is not None:
-            rate = LaggedTemperaturePower(self.rate_tau, 1)
-            out.append(Term("offset", rate, effect="thermal_lag"))
-        out.append(Term("gain", "1", source=axis))
-        for k in range(1, self.gain_order + 1):
-            eff = "base" if k == 1 else "sensitivity_curvature"
-            out.append(Term("gain", self.temp_basis(k), source=axis, effect=eff))
-        out += [Term("gain", "1", source=b, effect="misalignment") for b in self.cross]
-        out += [Term("offset", SquaredGravity(b), effect="nonlinearity") for b in self.squares]
-        if self.drift:
-            out.append(Term("offset", Elapsed(), effect="drift"))
-        if self.gain_drift:
-            out.append(Term("gain", Elapsed(), source=axis, effect="drift"))
-        out += [Term("offset", Extra(e), effect="extra") for e in self.extras]
-        out += self.generic
-        out += self.events
-        if self.tau is not None:
-            out = [
-                replace(t, effect="thermal_lag")
-                if t.basis.lag_s is not None and t.effect == "base"
-                else t
-                for t in out
-            ]
-        # One column once: a generic line may be a named family's term (drift, extra).
-        seen: set[tuple[str, Basis, str | None]] = set()
-        unique = []
-        for t in out:
-            if (t.kind, t.basis, t.source) not in seen:
-                seen.add((t.kind, t.basis, t.source))
-                unique.append(t)
-        return tuple(unique)
+        # Specs and terms are immutable values: the selection asks for the same ones
+        # again and again (every candidate, step and figure).
+        return _terms(self, axis)
+
+
+@functools.lru_cache(maxsize=4096)
+def _terms(spec: Spec, axis: str) -> tuple[Term, ...]:
+    """Return the terms of :meth:`Spec.terms` (kept: a spec is a value)."""
+    out = [Term("offset", "1")]
+    for k in range(1, spec.offset_order + 1):
+        eff = "base" if k == 1 else "offset_curvature"
+        out.append(Term("offset", spec.temp_basis(k), effect=eff))
+    if spec.rate_tau is not None:
+        rate = LaggedTemperaturePower(spec.rate_tau, 1)
+        out.append(Term("offset", rate, effect="thermal_lag"))
+    out.append(Term("gain", "1", source=axis))
+    for k in range(1, spec.gain_order + 1):
+        eff = "base" if k == 1 else "sensitivity_curvature"
+        out.append(Term("gain", spec.temp_basis(k), source=axis, effect=eff))
+    out += [Term("gain", "1", source=b, effect="misalignment") for b in spec.cross]
+    out += [Term("offset", SquaredGravity(b), effect="nonlinearity") for b in spec.squares]
+    if spec.drift:
+        out.append(Term("offset", Elapsed(), effect="drift"))
+    if spec.gain_drift:
+        out.append(Term("gain", Elapsed(), source=axis, effect="drift"))
+    out += [Term("offset", Extra(e), effect="extra") for e in spec.extras]
+    out += spec.generic
+    out += spec.events
+    if spec.tau is not None:
+        out = [
+            replace(t, effect="thermal_lag")
+            if t.basis.lag_s is not None and t.effect == "base"
+            else t
+            for t in out
+        ]
+    # One column once: a generic line may be a named family's term (drift, extra).
+    seen: set[tuple[str, Basis, str | None]] = set()
+    unique = []
+    for t in out:
+        if (t.kind, t.basis, t.source) not in seen:
+            seen.add((t.kind, t.basis, t.source))
+            unique.append(t)
+    return tuple(unique)
 
 
 def spec_from_terms(axis: str, terms: Sequence[Term]) -> Spec | None:
