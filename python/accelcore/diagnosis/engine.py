@@ -110,7 +110,7 @@ class Engine:
             )
             rate = rate_c_per_min(run.time_s, run.temperature_c)
             legs, kinds = leg_labels(
-                run.time_s, run.temperature_c, steady_c_per_min=steady_c_per_min
+                run.time_s, run.temperature_c, steady_c_per_min=steady_c_per_min, rate=rate
             )
             if window is None:
                 inside = np.ones(len(run), dtype=bool)

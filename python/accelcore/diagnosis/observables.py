@@ -71,6 +71,7 @@ def leg_labels(
     *,
     steady_c_per_min: float = STEADY_C_PER_MIN,
     min_leg_s: float = 300.0,
+    rate: FloatArray | None = None,
 ) -> tuple[NDArray[np.int64], list[str]]:
     """Split a run into monotonic legs of its temperature cycle.
 
@@ -78,6 +79,8 @@ def leg_labels(
     (steady within ``steady_c_per_min``); contiguous stretches of one sign form
     a leg, steady stretches join the leg before them (or after, at the start),
     and legs shorter than ``min_leg_s`` join a neighbour.
+
+    ``rate``: :func:`rate_c_per_min` of the run, when the caller has it.
 
     Returns
     -------
@@ -90,7 +93,9 @@ def leg_labels(
     n = t.size
     if n == 0:
         return np.zeros(0, dtype=np.int64), []
-    sign = _branch_sign(rate_c_per_min(t, temperature_c), steady_c_per_min)
+    if rate is None:
+        rate = rate_c_per_min(t, temperature_c)
+    sign = _branch_sign(rate, steady_c_per_min)
     # Fill steady samples with the previous non-steady sign (or the next one at the start).
     filled = sign.copy()
     nz = np.flatnonzero(sign)

@@ -150,19 +150,25 @@ def _explains_nothing(
     responses: Sequence[FloatArray],
 ) -> bool:
     """Return whether the columns' variation inside the windows explains no response's."""
-    safe = np.where(weight > 0, weight, 1.0)
-
-    def inside(values: FloatArray) -> FloatArray:
-        mean = np.bincount(window, weights=w * values, minlength=weight.size) / safe
-        return np.asarray(root_w * (values - mean[window]), dtype=np.float64)
-
     if not columns:
         return True
-    d = np.column_stack([inside(c) for c in columns])
-    d = d[:, np.abs(d).sum(axis=0) > 0]
+    safe = np.where(weight > 0, weight, 1.0)
+    # Windows are contiguous runs of samples: their sums by reduceat, spread back by repeat.
+    start = np.flatnonzero(np.diff(window, prepend=-1))
+    counts = np.diff(np.append(start, window.size))
+    q, r = len(columns), len(responses)
+    # Each column's and response's weighted deviation from its window mean, written into
+    # one array (columns first), in the column order the core takes.
+    dev = np.empty((window.size, q + r), order="F")
+    for j, values in enumerate([*columns, *responses]):
+        mean = np.add.reduceat(w * values, start) / safe
+        np.subtract(values, np.repeat(mean, counts), out=dev[:, j])
+        dev[:, j] *= root_w
+    live = np.abs(dev[:, :q]).sum(axis=0) > 0
+    d = dev[:, :q][:, live]
     if d.shape[1] == 0:
         return True
-    dys = np.column_stack([inside(y) for y in responses])
+    dys = dev[:, q:]
     # One factorisation for every response; columns the data cannot tell apart (time
     # inside windows that are themselves linear in time) are held at 0.
     lsq = BlockedLeastSquares(d.shape[1], 1, n_responses=len(responses))
@@ -175,9 +181,9 @@ def _explains_nothing(
         fit = folded.cross_validate(response=i)
         dy = dys[:, i]
         rss = float(fit.in_sample_rss)
-        q = d.shape[1] - len(fit.not_identified)
+        q_used = d.shape[1] - len(fit.not_identified)
         explained = max(float(dy @ dy) - rss, 0.0)
-        chance = q * rss / max(w.size - weight.size - q, 1)
+        chance = q_used * rss / max(w.size - weight.size - q_used, 1)
         if explained - chance > WINDOW_LOSS * total:
             return False
     return True
