@@ -141,3 +141,35 @@ def test_a_file_with_an_unknown_basis_is_refused_at_load(tmp_path: Path) -> None
     path.write_text(json.dumps(doc))
     with pytest.raises(CalibrationFileError, match="unknown basis 'dT\\^Q'"):
         Calibration.load(path)
+
+
+def test_kept_hashes_do_not_travel_with_pickles() -> None:
+    """Terms and bases keep their hash; a pickle must not carry it to another process.
+
+    String hashes are salted per process, so a carried hash would be wrong there: the
+    unpickled object must hash as a freshly built equal one, and hold no kept hash.
+    """
+    import pickle
+    import subprocess
+    import sys
+
+    from accelcore.model import Basis, Term
+
+    term = Term("gain", "hinge(2.5):extra:supply_v", source="y", effect="gain on g_y vs supply_v")
+    hash(term), hash(term.basis)
+    assert "_hash" not in pickle.loads(pickle.dumps(term.basis)).__dict__
+    blob = pickle.dumps((term, term.basis))
+    # Another process (another string-hash salt) looks both up in a dict of fresh ones.
+    code = (
+        "import pickle, sys\n"
+        "from accelcore.model import Basis, Term\n"
+        "t, b = pickle.loads(sys.stdin.buffer.read())\n"
+        "fresh = Term('gain', 'hinge(2.5):extra:supply_v', source='y',"
+        " effect='gain on g_y vs supply_v')\n"
+        "print({fresh: 1}.get(t), {fresh.basis: 1}.get(b))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], input=blob, capture_output=True, check=True
+    ).stdout
+    assert out.decode().split() == ["1", "1"]
+    assert Basis.parse("hinge(2.5):extra:supply_v") == term.basis

@@ -56,6 +56,15 @@ class Term:
         object.__setattr__(self, "basis", Basis.parse(basis))
         object.__setattr__(self, "source", source if kind == "gain" else None)
         object.__setattr__(self, "effect", effect)
+        # Terms key the diagnosis' caches (thousands of lookups per run): hashed once.
+        object.__setattr__(self, "_hash", hash((self.kind, self.basis, self.source, effect)))
+
+    def __hash__(self) -> int:
+        return self._hash  # type: ignore[attr-defined,no-any-return]
+
+    def __reduce__(self) -> tuple[type[Term], tuple[str, Basis, str | None, str]]:
+        # The kept hash is of this process (str hashes are salted): rebuilt on unpickling.
+        return (Term, (self.kind, self.basis, self.source, self.effect))
 
     @property
     def name(self) -> str:
