@@ -247,6 +247,8 @@ class Engine:
             self._within[a] = np.bincount(
                 self.sample_block, weights=self.w * dev * dev, minlength=self.block_start.size
             ).astype(np.float64)
+        self._within_total = {a: float(self._within[a].sum()) for a in AXES}
+        self._wsum = float(self.w.sum())
         self._memo: dict[tuple[str, tuple[_Key, ...]], HeldOutFit] = {}
         self._fixed_keys = {a: {_loose_key(t) for t, _ in self.fixed[a]} for a in AXES}
         self._free: dict[tuple[str, tuple[Term, ...]], tuple[Term, ...]] = {}
@@ -516,7 +518,7 @@ class Engine:
         beta_fold[: held.fold_coefficients.shape[0]] = held.fold_coefficients
         # A fold without a weighted row leaves every row for training: the fit on all data.
         beta_fold[np.isnan(beta_fold).any(axis=1)] = beta_in
-        within = float(self._within[axis].sum())
+        within = self._within_total[axis]
         return Fit(columns, beta_in, beta_fold, float(held.in_sample_rss) + within)
 
     def heldout_residuals(self, y: FloatArray, fit: Fit) -> FloatArray:
@@ -541,8 +543,8 @@ class Engine:
         else:
             within = self._within[axis]
             sse_blocks = np.array(held.heldout_rss_per_block, dtype=np.float64) + within
-            sse_in = max(float(held.in_sample_rss), 0.0) + float(within.sum())
-        wsum = float(self.w.sum())
+            sse_in = max(float(held.in_sample_rss), 0.0) + self._within_total[axis]
+        wsum = self._wsum
         return CV(
             tuple(terms),
             sse_blocks.astype(np.float64),
