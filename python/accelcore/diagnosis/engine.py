@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 
 import numpy as np
@@ -36,8 +37,7 @@ from numpy.typing import NDArray
 
 from accelcore._accelcore import first_order_lag
 from accelcore.core import BlockedLeastSquares, FoldedLeastSquares, HeldOutFit
-from accelcore.errors import InsufficientDataError
-from accelcore.fitting.calibrate import CutFeatures, Stacked, block_weights
+from accelcore.fitting.calibrate import Stacked
 from accelcore.input.records import record_names, records
 from accelcore.input.session import Session
 from accelcore.model import (
@@ -46,7 +46,6 @@ from accelcore.model import (
     Constant,
     Elapsed,
     Extra,
-    Features,
     Hinge,
     LaggedTemperaturePower,
     TemperaturePower,
@@ -57,7 +56,7 @@ from accelcore.result.calibration import AxisModel, Calibration, nominal_sensiti
 
 from .fits import CV, Fit
 from .folds import choose_folds, cut_blocks
-from .observables import leg_labels, rate_c_per_min
+from .parts import cut_parts
 from .windows import choose_windows
 
 __all__ = ["CV", "Engine"]
@@ -78,65 +77,30 @@ class Engine:
         steady_c_per_min: float,
         max_order: int = 5,
         corrections: Sequence[FloatArray] | None = None,
+        threads: int = 1,
     ) -> None:
         # ``corrections``: per part (in the order parts are cut), what to take off
         # the output first (session events fitted on an earlier pass), session units.
         self.session = session
         self._settings = (folds, block_s, steady_c_per_min, max_order)
+        #: Threads of the catalogues' pushes (independent problems in the core).
+        self.threads = max(1, int(threads))
         # Contiguous pieces of one log are one record: folds never follow file cuts.
         self.records = records(session)
         self.record_names = record_names(self.records)
         self.t_ref_c = base.t_ref_c
-        window = None if not np.all(np.isfinite(base.window_c)) else base.window_c
         self.references = dict(base.references)
-        feats: list[Features] = []
-        grav, wts, run_idx = [], [], []
-        out: list[FloatArray] = []
-        part_run: list[int] = []
-        part_leg: list[int] = []
-        leg_kinds: dict[tuple[int, int], str] = {}
-        rates: list[FloatArray] = []
-        # Each record's features whole (a lag runs over the record unbroken) and where
-        # every sample of the parts sits in them, end to end.
-        self._wholes: list[tuple[FloatArray, FloatArray]] = []
-        gather: list[NDArray[np.int64]] = []
-        offset = 0
-        for i, run in enumerate(self.records):
-            if len(run) == 0:
-                continue
-            time_s = run.time_s - run.time_s[0]
-            whole = Features(
-                run.temperature_c, time_s, run.extras, self.t_ref_c, run=self.record_names[i]
-            )
-            rate = rate_c_per_min(run.time_s, run.temperature_c)
-            legs, kinds = leg_labels(
-                run.time_s, run.temperature_c, steady_c_per_min=steady_c_per_min, rate=rate
-            )
-            if window is None:
-                inside = np.ones(len(run), dtype=bool)
-            else:
-                inside = (run.temperature_c >= window[0]) & (run.temperature_c <= window[1])
-            # Same weights as the calibration: spikes and clipped blocks left out.
-            weight, _ = block_weights(run, robust=bool(base.options.get("robust", True)))
-            for leg in range(len(kinds)):
-                keep = inside & (legs == leg)
-                if np.count_nonzero(keep) < 2:
-                    continue
-                feats.append(CutFeatures.cut(whole, keep))
-                gather.append(offset + np.flatnonzero(keep))
-                grav.append(run.gravity_g)
-                cut = run.output[keep]
-                out.append(cut if corrections is None else cut - corrections[len(out)])
-                wts.append(weight[keep])
-                run_idx.append(i)
-                part_run.append(i)
-                part_leg.append(leg)
-                leg_kinds[(i, leg)] = kinds[leg]
-                rates.append(rate[keep])
-            self._wholes.append((time_s, np.asarray(run.temperature_c, dtype=np.float64)))
-            offset += len(run)
-        if not feats:
-            raise InsufficientDataError("no decimated sample lies in the calibration's window")
+        cut = cut_parts(
+            self.records,
+            self.record_names,
+            base,
+            steady_c_per_min=steady_c_per_min,
+            corrections=corrections,
+        )
+        feats, grav, out, wts, run_idx = cut.features, cut.gravity, cut.output, cut.weight, cut.run
+        part_run, part_leg, leg_kinds, rates = cut.run, cut.leg, cut.leg_kinds, cut.rate
+        self._wholes = cut.wholes
+        gather = cut.gather
         self.data = Stacked(feats, grav, out, wts, run_idx)
         self._gather = np.concatenate(gather)
         self.part_run = part_run
@@ -273,7 +237,7 @@ class Engine:
         # Catalogues of columns, their rows pushed once: (column index, folds) per lag,
         # or per observable of the generic family (("generic", name)).
         self._wide: dict[_CatalogueName, tuple[dict[_Key, int], FoldedLeastSquares]] = {}
-        self._push_catalogue(None)
+        self._push_catalogues([(None, self._catalogue(None))])
 
     def less(self, corrections: Sequence[FloatArray]) -> Engine:
         """Return the engine of this session and settings on the output less ``corrections``."""
@@ -286,6 +250,7 @@ class Engine:
             steady_c_per_min=steady,
             max_order=order,
             corrections=corrections,
+            threads=self.threads,
         )
 
     def compress(self, values: FloatArray) -> FloatArray:
@@ -354,19 +319,18 @@ class Engine:
         return np.column_stack([self.column(t) for t in free])
 
     # -------------------------------------------------------------- fitting
-    def _push_catalogue(
+    def _catalogue(
         self,
         lag: tuple[str, float] | None,
         extra_keys: Sequence[_Key] = (),
-        name: tuple[str, str] | None = None,
         only: bool = False,
-    ) -> None:
-        """Push the columns of a catalogue once (three responses) and fix its folds.
+    ) -> tuple[list[_Key], FloatArray] | None:
+        """Return the columns of a catalogue and their window design (None: not finite).
 
         ``lag`` None: the catalogue without a lag. ``("die", tau)``: every temperature
         basis lagged by ``tau``. ``("rate", tau)``: the one without a lag plus the rate
-        term ``lag(tau):dT^1``. ``extra_keys`` are further columns (kept under ``name``);
-        ``only``: they are the whole catalogue.
+        term ``lag(tau):dT^1``. ``extra_keys`` are further columns; ``only``: they are
+        the whole catalogue.
         """
         plain: list[Basis] = [TemperaturePower(k) for k in range(1, self.max_order + 1)]
         temps: list[Basis] = plain
@@ -384,40 +348,64 @@ class Engine:
         for i, key in enumerate(keys):
             design[:, i] = self._window_column(key)
         if not np.all(np.isfinite(design)):
-            return
-        wide = BlockedLeastSquares(len(keys), int(self.block_start.size), n_responses=len(AXES))
-        wide.push(
-            design,
-            np.column_stack([self._yc[a] for a in AXES]),
-            self.window_block,
-            self.window_weight,
-        )
-        self._wide[lag if name is None else name] = (
-            {k: i for i, k in enumerate(keys)},
-            wide.folds(self.block_fold),
-        )
+            return None
+        return keys, design
+
+    def _push_catalogues(
+        self, catalogues: Sequence[tuple[_CatalogueName, tuple[list[_Key], FloatArray] | None]]
+    ) -> None:
+        """Push the rows of catalogues (three responses) and fix their folds, at once.
+
+        Each is its own problem in the core: they run on up to :attr:`threads` threads.
+        """
+        todo = [(name, found) for name, found in catalogues if found is not None]
+        responses = np.column_stack([self._yc[a] for a in AXES])
+
+        def push(design: FloatArray) -> FoldedLeastSquares:
+            wide = BlockedLeastSquares(
+                design.shape[1], int(self.block_start.size), n_responses=len(AXES)
+            )
+            wide.push(design, responses, self.window_block, self.window_weight)
+            return wide.folds(self.block_fold)
+
+        designs = [found[1] for _, found in todo]
+        if self.threads > 1 and len(designs) > 1:
+            with ThreadPoolExecutor(min(self.threads, len(designs))) as pool:
+                folded = list(pool.map(push, designs))
+        else:
+            folded = [push(d) for d in designs]
+        for (name, (keys, _)), f in zip(todo, folded, strict=True):
+            self._wide[name] = ({k: i for i, k in enumerate(keys)}, f)
 
     def set_models(self, terms: Mapping[str, Sequence[Term]]) -> None:
-        """Note the current model of every axis (the columns of :meth:`ensure_catalogue`)."""
+        """Note the current model of every axis (the columns of :meth:`ensure_catalogues`)."""
         keys: list[_Key] = []
         for a, ts in terms.items():
             keys += [k for k in self._keys(a, ts) if k not in keys]
         self._model_keys = tuple(keys)
 
-    def ensure_catalogue(self, name: str, columns: Sequence[tuple[Basis, str | None]]) -> None:
-        """Push, once, the columns of the current models plus ``columns`` (basis, source).
+    def ensure_catalogues(
+        self, catalogues: Sequence[tuple[str, Sequence[tuple[Basis, str | None]]]]
+    ) -> None:
+        """Push, once, for each (name, columns), the current models' columns plus ``columns``.
 
-        The generic family keeps one per observable and set of current models, so
-        that its candidates (a model plus some of ``columns``) are subset queries.
+        ``columns`` are (basis, source) pairs. The generic family keeps one per
+        observable and set of current models, so that its candidates (a model plus
+        some of ``columns``) are subset queries. New ones are pushed together
+        (:meth:`_push_catalogues`).
         """
-        cols = [*self._model_keys, *(c for c in columns if c not in self._model_keys)]
-        key = ("generic", f"{name}|{hash(tuple(cols))}")
-        if key not in self._attempted:
+        todo: list[tuple[_CatalogueName, tuple[list[_Key], FloatArray] | None]] = []
+        for name, columns in catalogues:
+            cols = [*self._model_keys, *(c for c in columns if c not in self._model_keys)]
+            key = ("generic", f"{name}|{hash(tuple(cols))}")
+            if key in self._attempted:
+                continue
             self._attempted.add(key)
             for old in [k for k in self._wide if k is not None and k[0] == "generic"]:
                 if str(old[1]).split("|")[0] == name:
                     del self._wide[old]  # the models moved on: its columns are stale
-            self._push_catalogue(None, cols, key, only=True)
+            todo.append((key, self._catalogue(None, cols, only=True)))
+        self._push_catalogues(todo)
 
     def cv_coarse(self, axis: str, terms: Sequence[Term]) -> float:
         """Held-out weighted SSE of an axis model on every :attr:`coarse_stride`-th row.
@@ -454,9 +442,8 @@ class Engine:
             if lag not in wanted and (lag is None or lag[0] != "generic"):
                 del self._wide[lag]
         self.drop_lag_cache([*die, *rate])
-        for lag in wanted:
-            if lag not in self._wide:
-                self._push_catalogue(lag)
+        missing = sorted((lag for lag in wanted if lag not in self._wide), key=str)
+        self._push_catalogues([(lag, self._catalogue(lag)) for lag in missing])
 
     def _window_column(self, key: _Key) -> FloatArray:
         """Return the column of a key as window means (a gain's gravity is constant in one)."""

@@ -182,6 +182,8 @@ def generic_variants(
     sources: list[str | None] = [None]
     sources += [b for b in AXES if eng.gravity_values[AXES.index(b)] >= 2]
     out: list[tuple[str, str, Spec, list[tuple[str, Spec]]]] = []
+    # Each observable's knot sets, coarse to fine; their catalogues pushed together.
+    found: list[tuple[str, Basis, list[tuple[float, ...]]]] = []
     for name, inner in observables(eng):
         if name in skip:
             continue
@@ -193,14 +195,21 @@ def generic_variants(
             ks = knots(eng, inner, fractions)
             if len(ks) > len(sets[-1]):
                 sets.append(ks)
-        eng.ensure_catalogue(
-            name,
-            [
-                (t.basis, None if t.kind == "offset" else t.source)
-                for source in sources
-                for t in _slot_terms(inner, source, "", coarse)
-            ],
-        )
+        found.append((name, inner, sets))
+    eng.ensure_catalogues(
+        [
+            (
+                name,
+                [
+                    (t.basis, None if t.kind == "offset" else t.source)
+                    for source in sources
+                    for t in _slot_terms(inner, source, "", sets[0])
+                ],
+            )
+            for name, inner, sets in found
+        ]
+    )
+    for name, inner, sets in found:
         unit = observable_unit(inner)
         for source in sources:
             if (source, inner) in held:

@@ -163,9 +163,10 @@ def search_1d(
 #: (the same trials to rounding; False forces the Python loop, for tests and benches).
 CORE_SEARCH = True
 
-#: Threads of the core's searches run together (:func:`search_many`); None: one per
-#: core. A bulk worker process sets it to its share of the cores
-#: (:mod:`accelcore.apps.bulk`), so that jobs times threads never exceeds the cores.
+#: Threads of the core's searches run together (:func:`search_many`) and of the
+#: engine's catalogue pushes (:attr:`Engine.threads`); None: one per core. A bulk
+#: worker process sets it to its share of the cores (:mod:`accelcore.apps.bulk`), so
+#: that jobs times threads never exceeds the cores.
 search_threads: int | None = None
 
 #: Key of a core search: the axis, the range, the model's column keys at both ends of

@@ -22,6 +22,7 @@ calibration (:func:`_improved_calibration`) and check the final residual for str
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
@@ -465,6 +466,7 @@ def diagnose(
         block_s=block_s,
         steady_c_per_min=steady_c_per_min,
         max_order=max_order,
+        threads=search.search_threads or os.cpu_count() or 1,
     )
     extras_used = usable_extras(session, eng, extras, notes)
     confounded = confounding(eng, specs, extras_used, confound_r)

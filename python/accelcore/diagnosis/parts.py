@@ -1,0 +1,116 @@
+"""Parts of the engine: each record's samples inside the window, cut by leg.
+
+A *part* is the samples of one record (contiguous pieces of one log: folds never
+follow file cuts) inside the calibration's temperature window that lie on one leg of
+its temperature cycle (:func:`.observables.leg_labels`). The lag of a part's features
+runs over its record unbroken, so each record's features are also kept whole, with
+where every sample of the parts sits in them.
+
+Imports: NumPy, the model's features and the calibration's cut features and weights.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from accelcore.errors import InsufficientDataError
+from accelcore.fitting.calibrate import CutFeatures, block_weights
+from accelcore.input.run import Run
+from accelcore.model import Features
+from accelcore.result.calibration import Calibration
+
+from .observables import leg_labels, rate_c_per_min
+
+__all__ = ["Parts", "cut_parts"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Parts:
+    """The parts of a session, in the order cut (record by record, leg by leg).
+
+    Attributes
+    ----------
+    features, gravity, output, weight : lists, one entry per part
+        Its features, orientation's gravity (g), output (less the corrections)
+        and sample weights (those of the calibration).
+    run, leg : list of int
+        Record and leg of each part.
+    leg_kinds : dict
+        ``"heating"``, ``"cooling"`` or ``"steady"`` of each (record, leg).
+    rate : list of ndarray
+        Rate of temperature of each part's samples, °C/min.
+    wholes : list of (ndarray, ndarray)
+        Each record's time since its start (s) and temperature (°C), whole.
+    gather : list of ndarray of int64
+        Where each part's samples sit in the records' samples end to end.
+    """
+
+    features: list[Features]
+    gravity: list[FloatArray]
+    output: list[FloatArray]
+    weight: list[FloatArray]
+    run: list[int]
+    leg: list[int]
+    leg_kinds: dict[tuple[int, int], str]
+    rate: list[FloatArray]
+    wholes: list[tuple[FloatArray, FloatArray]]
+    gather: list[NDArray[np.int64]]
+
+
+def cut_parts(
+    records: Sequence[Run],
+    names: Sequence[str],
+    base: Calibration,
+    *,
+    steady_c_per_min: float,
+    corrections: Sequence[FloatArray] | None = None,
+) -> Parts:
+    """Cut the records into parts (see the module docs).
+
+    ``corrections``: per part (in the order parts are cut), what to take off the
+    output first (session events fitted on an earlier pass), session units.
+    """
+    window = None if not np.all(np.isfinite(base.window_c)) else base.window_c
+    out = Parts([], [], [], [], [], [], {}, [], [], [])
+    offset = 0
+    for i, run in enumerate(records):
+        if len(run) == 0:
+            continue
+        time_s = run.time_s - run.time_s[0]
+        whole = Features(run.temperature_c, time_s, run.extras, base.t_ref_c, run=names[i])
+        rate = rate_c_per_min(run.time_s, run.temperature_c)
+        legs, kinds = leg_labels(
+            run.time_s, run.temperature_c, steady_c_per_min=steady_c_per_min, rate=rate
+        )
+        if window is None:
+            inside = np.ones(len(run), dtype=bool)
+        else:
+            inside = (run.temperature_c >= window[0]) & (run.temperature_c <= window[1])
+        # Same weights as the calibration: spikes and clipped blocks left out.
+        weight, _ = block_weights(run, robust=bool(base.options.get("robust", True)))
+        for leg in range(len(kinds)):
+            keep = inside & (legs == leg)
+            if np.count_nonzero(keep) < 2:
+                continue
+            out.features.append(CutFeatures.cut(whole, keep))
+            out.gather.append(offset + np.flatnonzero(keep))
+            out.gravity.append(run.gravity_g)
+            cut = run.output[keep]
+            k = len(out.output)
+            out.output.append(cut if corrections is None else cut - corrections[k])
+            out.weight.append(weight[keep])
+            out.run.append(i)
+            out.leg.append(leg)
+            out.leg_kinds[(i, leg)] = kinds[leg]
+            out.rate.append(rate[keep])
+        out.wholes.append((time_s, np.asarray(run.temperature_c, dtype=np.float64)))
+        offset += len(run)
+    if not out.features:
+        raise InsufficientDataError("no decimated sample lies in the calibration's window")
+    return out
