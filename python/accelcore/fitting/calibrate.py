@@ -353,14 +353,23 @@ def _fit_paper(
 
 def _logged_bins(session: Session, width_c: float) -> tuple[float, float]:
     """Whole bins of ``width_c`` on the grid of its multiples that hold every logged temperature."""
-    temps = [r.temperature_c[np.isfinite(r.temperature_c)] for r in session.runs]
-    temps = [t for t in temps if t.size]
-    if not temps:
+    ranges = []
+    for r in session.runs:
+        t = r.temperature_c
+        if t.size:
+            # Both finite: so is every value (a NaN makes min NaN), none to leave out.
+            lo, hi = float(t.min()), float(t.max())
+            if not (math.isfinite(lo) and math.isfinite(hi)):
+                t = t[np.isfinite(t)]
+                lo, hi = (float(t.min()), float(t.max())) if t.size else (math.nan, math.nan)
+            if t.size:
+                ranges.append((lo, hi))
+    if not ranges:
         raise InsufficientDataError(
             "the paper's method bins by temperature, and no run logged one; use method='joint'"
         )
-    lo = min(float(t.min()) for t in temps)
-    hi = max(float(t.max()) for t in temps)
+    lo = min(r[0] for r in ranges)
+    hi = max(r[1] for r in ranges)
     # Bins are [lo, hi): the top edge lies a whole bin above the warmest sample's bin.
     return math.floor(lo / width_c) * width_c, (math.floor(hi / width_c) + 1) * width_c
 

@@ -133,6 +133,9 @@ const BATCH_VALUES: usize = BATCH_ROWS * 8;
 /// Longest accepted line, bytes. A longer one (a binary file, or a log without
 /// line ends) is an error instead of being buffered whole.
 pub const MAX_LINE_BYTES: usize = 1 << 20;
+/// The body's read buffer, bytes: small enough that the bytes read stay in the
+/// core's cache until they are parsed; it grows for a longer line.
+const BLOCK_BYTES: usize = 1 << 17;
 /// Header names shown in a "missing column" message.
 const MAX_NAMES_SHOWN: usize = 32;
 
@@ -321,25 +324,37 @@ struct RowSink<'a> {
 }
 
 impl RowSink<'_> {
-    /// Take one parsed row (`fields` in header order) read from line `line_no`.
+    /// Where the next row's fields go (header order), parsed in place.
     #[inline]
-    fn take(&mut self, fields: &[f64], line_no: u64) -> Result<()> {
-        let c = self.columns;
-        let t = fields[c.time] * self.time_scale_to_s;
-        let temperature = fields[c.temperature];
+    fn slot(&mut self) -> &mut [f64] {
         let batch = &mut self.batch;
-        let start = batch.channels.len();
-        batch.channels.extend(c.channels.iter().map(|&i| fields[i]));
-        self.tally
-            .push_row(t, temperature, &batch.channels[start..]);
-        batch.time_s.push(t);
-        batch.temperature_c.push(temperature);
+        let start = batch.filled * batch.n_fields;
+        &mut batch.raw[start..start + batch.n_fields]
+    }
+
+    /// Keep the row parsed into [`Self::slot`], read from line `line_no`.
+    #[inline]
+    fn commit(&mut self, line_no: u64) -> Result<()> {
+        let batch = &mut self.batch;
         batch.lines.push(line_no);
-        if batch.time_s.len() == batch.rows {
-            let n_channels = c.channels.len();
-            batch.flush(&mut self.decimator, n_channels, self.path, self.time_field)?;
+        batch.filled += 1;
+        if batch.filled == batch.rows {
+            batch.flush(
+                self.columns,
+                self.time_scale_to_s,
+                &mut self.tally,
+                &mut self.decimator,
+                self.path,
+                self.time_field,
+            )?;
         }
         Ok(())
+    }
+
+    /// Take one row parsed elsewhere (`fields` in header order) read from line `line_no`.
+    fn take(&mut self, fields: &[f64], line_no: u64) -> Result<()> {
+        self.slot().copy_from_slice(fields);
+        self.commit(line_no)
     }
 }
 
@@ -358,7 +373,7 @@ impl<R: Read> BlockLines<R> {
     fn new(reader: R) -> Self {
         Self {
             reader,
-            buf: vec![0; MAX_LINE_BYTES + (1 << 16)],
+            buf: vec![0; BLOCK_BYTES],
             start: 0,
             end: 0,
             eof: false,
@@ -397,6 +412,11 @@ impl<R: Read> BlockLines<R> {
             self.buf.copy_within(self.start..self.end, 0);
             self.end -= self.start;
             self.start = 0;
+            if self.end == self.buf.len() {
+                // A line longer than the buffer: grow it, up to the longest line accepted.
+                let longer = (2 * self.buf.len()).min(MAX_LINE_BYTES + (1 << 16));
+                self.buf.resize(longer, 0);
+            }
             let n = loop {
                 match self.reader.read(&mut self.buf[self.end..]) {
                     Ok(n) => break n,
@@ -507,10 +527,16 @@ fn map_columns(
     })
 }
 
-/// Column-major batch of parsed rows waiting to be pushed.
+/// A batch of parsed rows waiting to be pushed: the fields as parsed, row after
+/// row, and at the flush the columns the decimator takes, column by column.
 struct Batch {
     /// Rows per batch (see [`BATCH_VALUES`]).
     rows: usize,
+    /// Fields per row (the header's).
+    n_fields: usize,
+    /// `rows` rows of `n_fields` values; the first `filled` are parsed rows.
+    raw: Vec<f64>,
+    filled: usize,
     time_s: Vec<f64>,
     temperature_c: Vec<f64>,
     channels: Vec<f64>,
@@ -518,10 +544,13 @@ struct Batch {
 }
 
 impl Batch {
-    fn new(n_channels: usize) -> Self {
-        let rows = (BATCH_VALUES / n_channels.max(1)).clamp(1, BATCH_ROWS);
+    fn new(n_fields: usize, n_channels: usize) -> Self {
+        let rows = (BATCH_VALUES / n_fields.max(1)).clamp(1, BATCH_ROWS);
         Self {
             rows,
+            n_fields,
+            raw: vec![0.0; rows * n_fields],
+            filled: 0,
             time_s: Vec::with_capacity(rows),
             temperature_c: Vec::with_capacity(rows),
             channels: Vec::with_capacity(rows * n_channels),
@@ -529,14 +558,32 @@ impl Batch {
         }
     }
 
+    /// Gather the rows' time (scaled to s), temperature and channels, tally them,
+    /// then push them to the decimator.
     fn flush(
         &mut self,
+        columns: &ColumnMap,
+        time_scale_to_s: f64,
+        tally: &mut RunTally,
         decimator: &mut Decimator,
-        n_channels: usize,
         path: &str,
         time_field: u64,
     ) -> Result<()> {
+        let n_channels = columns.channels.len();
+        self.time_s.clear();
+        self.temperature_c.clear();
+        self.channels.clear();
+        if self.n_fields > 0 {
+            let rows = self.raw[..self.filled * self.n_fields].chunks_exact(self.n_fields);
+            for row in rows {
+                self.time_s.push(row[columns.time] * time_scale_to_s);
+                self.temperature_c.push(row[columns.temperature]);
+                self.channels
+                    .extend(columns.channels.iter().map(|&i| row[i]));
+            }
+        }
         let n = self.time_s.len();
+        tally.push_rows(&self.time_s, &self.temperature_c, &self.channels);
         let view = ArrayView2::from_shape((n, n_channels), &self.channels).map_err(|e| {
             Error::InvalidParameter {
                 name: "channels",
@@ -568,10 +615,8 @@ impl Batch {
                 }
                 other => other,
             })?;
-        self.time_s.clear();
-        self.temperature_c.clear();
-        self.channels.clear();
         self.lines.clear();
+        self.filled = 0;
         Ok(())
     }
 }
@@ -670,7 +715,7 @@ pub fn read_run_hashed(
 /// [`read_run`], and the digest of the file's bytes, hashed as they are parsed:
 /// the digest is that of exactly the bytes the result was read from, even if the
 /// file is being appended to meanwhile (bytes after a cut-off last line included).
-/// The reader's buffer is 1 MiB, so each update hands the hasher a large slice
+/// The reader's buffer is 128 KiB, so each update hands the hasher a large slice
 /// (BLAKE3 hashes many 1 KiB chunks of it at once with SIMD).
 pub fn read_run_digest(
     path: &Path,
@@ -824,7 +869,7 @@ fn read_body<R: BufRead>(
     })?;
     let mut sink = RowSink {
         tally: RunTally::new(n_channels, decimator.config().rate_hz)?,
-        batch: Batch::new(n_channels),
+        batch: Batch::new(n_fields, n_channels),
         decimator,
         time_scale_to_s: format.time_scale_to_s,
         time_field: columns.time as u64 + 1,
@@ -843,12 +888,12 @@ fn read_body<R: BufRead>(
             while let Some(n) = parse_line_fast(
                 &lines.pending()[used..],
                 format.delimiter,
-                &mut fields,
+                sink.slot(),
                 &mut layouts,
             ) {
                 used += n;
                 line_no += 1;
-                sink.take(&fields, line_no)?;
+                sink.commit(line_no)?;
             }
             lines.consume(used);
         }
@@ -894,13 +939,21 @@ fn read_body<R: BufRead>(
         sink.take(&fields, line_no)?;
     }
     let RowSink {
-        tally,
+        mut tally,
         mut batch,
         mut decimator,
         time_field,
+        time_scale_to_s,
         ..
     } = sink;
-    batch.flush(&mut decimator, n_channels, path, time_field)?;
+    batch.flush(
+        &columns,
+        time_scale_to_s,
+        &mut tally,
+        &mut decimator,
+        path,
+        time_field,
+    )?;
     let stats = tally.finish();
     let n_rows = stats.n_rows;
     if n_rows == 0 && !allow_empty {

@@ -86,6 +86,53 @@ impl ChannelRange {
     }
 }
 
+/// Whether every value is finite (no early exit: the loop vectorises).
+#[inline]
+fn all_finite(values: &[f64]) -> bool {
+    values.iter().fold(true, |all, v| all & v.is_finite())
+}
+
+/// [`ChannelRange::push`] of every value, a column at a time (`ranges.len()` columns).
+fn push_columns(ranges: &mut [ChannelRange], channels: &[f64]) {
+    let n_channels = ranges.len();
+    for (j, range) in ranges.iter_mut().enumerate() {
+        for &v in channels.iter().skip(j).step_by(n_channels.max(1)) {
+            range.push(v);
+        }
+    }
+}
+
+/// [`push_columns`] of finite rows of `C` channels: each column's smallest and
+/// largest value over the rows, then how many equal each, merged into `ranges`.
+fn merge_ranges<const C: usize>(ranges: &mut [ChannelRange], channels: &[f64]) {
+    let (mut lo, mut hi) = ([f64::INFINITY; C], [f64::NEG_INFINITY; C]);
+    for row in channels.chunks_exact(C) {
+        for j in 0..C {
+            // Strict comparisons, as `ChannelRange::push`: of values that compare
+            // equal (zeros of either sign) the first is kept. No NaN here.
+            lo[j] = if row[j] < lo[j] { row[j] } else { lo[j] };
+            hi[j] = if row[j] > hi[j] { row[j] } else { hi[j] };
+        }
+    }
+    let (mut n_lo, mut n_hi) = ([0u64; C], [0u64; C]);
+    for row in channels.chunks_exact(C) {
+        for j in 0..C {
+            n_lo[j] += u64::from(row[j] == lo[j]);
+            n_hi[j] += u64::from(row[j] == hi[j]);
+        }
+    }
+    for (j, range) in ranges.iter_mut().enumerate() {
+        if n_lo[j] > 0 {
+            range.merge(&ChannelRange {
+                min: lo[j],
+                max: hi[j],
+                n_at_min: n_lo[j],
+                n_at_max: n_hi[j],
+            });
+        }
+    }
+}
+
 /// What a run's raw samples looked like (the result of a [`RunTally`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RawStats {
@@ -201,6 +248,88 @@ impl RunTally {
                 s.n_gaps += u64::from(dt > self.gap_s);
             }
             s.last_time_s = time_s;
+        }
+    }
+
+    /// Count rows held column by column: `time_s` and `temperature_c` (one per
+    /// row) and `channels`, the rows' [`RunTally::n_channels`] values one row
+    /// after another. The same as [`RunTally::push_row`] on each row in turn,
+    /// a column at a time: the reader tallies each batch of rows so.
+    ///
+    /// Panics if `temperature_c` or `channels` does not match `time_s`'s length.
+    pub fn push_rows(&mut self, time_s: &[f64], temperature_c: &[f64], channels: &[f64]) {
+        let n_channels = self.n_channels();
+        assert!(
+            temperature_c.len() == time_s.len() && channels.len() == time_s.len() * n_channels,
+            "push_rows: {} times, {} temperatures and {} channel values for {n_channels} channels",
+            time_s.len(),
+            temperature_c.len(),
+            channels.len()
+        );
+        let s = &mut self.stats;
+        s.n_rows += time_s.len() as u64;
+        if all_finite(time_s) & all_finite(temperature_c) & all_finite(channels) {
+            // The usual batch: every value finite, so each channel's batch range
+            // (taken a column at a time) merges into the run's exactly.
+            match n_channels {
+                3 => merge_ranges::<3>(&mut s.channel_ranges, channels),
+                4 => merge_ranges::<4>(&mut s.channel_ranges, channels),
+                5 => merge_ranges::<5>(&mut s.channel_ranges, channels),
+                6 => merge_ranges::<6>(&mut s.channel_ranges, channels),
+                _ => push_columns(&mut s.channel_ranges, channels),
+            }
+        } else {
+            if n_channels > 0 {
+                let rows = channels.chunks_exact(n_channels);
+                for ((&t, &temp), row) in time_s.iter().zip(temperature_c).zip(rows) {
+                    let finite = t.is_finite() & temp.is_finite() & all_finite(row);
+                    s.n_skipped_nonfinite += u64::from(!finite);
+                }
+            } else {
+                for (&t, &temp) in time_s.iter().zip(temperature_c) {
+                    s.n_skipped_nonfinite += u64::from(!(t.is_finite() & temp.is_finite()));
+                }
+            }
+            push_columns(&mut s.channel_ranges, channels);
+        }
+        if let (Some(&first), Some(&last), true) =
+            (time_s.first(), time_s.last(), all_finite(time_s))
+        {
+            // Every time finite: the first row's interval from the last row tallied,
+            // then those within the rows in one pass without a branch per row.
+            if s.first_time_s.is_nan() {
+                s.first_time_s = first;
+            } else {
+                let dt = first - s.last_time_s;
+                if dt > s.max_interval_s {
+                    s.max_interval_s = dt;
+                }
+                s.n_gaps += u64::from(dt > self.gap_s);
+            }
+            let (mut longest, mut n_gaps) = (s.max_interval_s, 0u64);
+            for pair in time_s.windows(2) {
+                let dt = pair[1] - pair[0];
+                longest = if dt > longest { dt } else { longest };
+                n_gaps += u64::from(dt > self.gap_s);
+            }
+            s.max_interval_s = longest;
+            s.n_gaps += n_gaps;
+            s.last_time_s = last;
+            return;
+        }
+        for &t in time_s {
+            if t.is_finite() {
+                if s.first_time_s.is_nan() {
+                    s.first_time_s = t;
+                } else {
+                    let dt = t - s.last_time_s;
+                    if dt > s.max_interval_s {
+                        s.max_interval_s = dt;
+                    }
+                    s.n_gaps += u64::from(dt > self.gap_s);
+                }
+                s.last_time_s = t;
+            }
         }
     }
 

@@ -148,3 +148,59 @@ proptest! {
         prop_assert_eq!(stats.n_rows, decimator.n_samples());
     }
 }
+
+/// Bitwise equal (so a zero's sign counts), NaN equal to NaN.
+fn same_bits(a: &RawStats, b: &RawStats) -> bool {
+    let t = |x: f64, y: f64| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
+    same(a, b)
+        && t(a.max_interval_s, b.max_interval_s)
+        && a.channel_ranges
+            .iter()
+            .zip(&b.channel_ranges)
+            .all(|(x, y)| t(x.min, y.min) && t(x.max, y.max))
+}
+
+proptest! {
+    #[test]
+    fn rows_pushed_a_column_at_a_time_equal_rows_one_by_one(
+        (nc, (time, temp, channels), cuts, finite) in (0usize..8).prop_flat_map(|nc| {
+            (
+                Just(nc),
+                rows(nc),
+                proptest::collection::vec(0.0f64..1.0, 0..4),
+                prop::bool::weighted(0.7),
+            )
+        })
+    ) {
+        // Mostly all-finite batches (the fast path), with zeros of both signs;
+        // otherwise NaN and infinite values, missing times and temperatures.
+        let (mut time, mut temp, mut channels) = (time, temp, channels);
+        if finite {
+            let mut t = 0.0;
+            for x in &mut time {
+                t = if x.is_finite() { *x } else { t + 0.05 };
+                *x = t;
+            }
+            for (i, x) in temp.iter_mut().chain(channels.iter_mut()).enumerate() {
+                if !x.is_finite() {
+                    *x = if i % 2 == 0 { 0.0 } else { -0.0 };
+                }
+            }
+        }
+        let n = time.len();
+        let mut bounds: Vec<usize> = cuts.iter().map(|c| (c * n as f64) as usize).collect();
+        bounds.extend([0, n]);
+        bounds.sort_unstable();
+        let mut by_row = RunTally::new(nc, 20.0).unwrap();
+        for i in 0..n {
+            by_row.push_row(time[i], temp[i], &channels[i * nc..(i + 1) * nc]);
+        }
+        let mut by_column = RunTally::new(nc, 20.0).unwrap();
+        for w in bounds.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            by_column.push_rows(&time[a..b], &temp[a..b], &channels[a * nc..b * nc]);
+        }
+        let (want, got) = (by_row.finish(), by_column.finish());
+        prop_assert!(same_bits(&got, &want), "{:?} != {:?}", got, want);
+    }
+}
