@@ -31,7 +31,7 @@
 //! - **Empty input.** Chunks with zero rows change nothing;
 //!   [`TemperatureBinner::finish`] returns [`Error::Empty`] when no sample fell
 //!   inside the window.
-use crate::decimate::check_shapes;
+use crate::decimate::{all_finite, check_shapes, least_reaching};
 use crate::error::{Error, Result};
 use ndarray::ArrayView2;
 
@@ -279,11 +279,43 @@ impl TemperatureBinner {
         ok.then(|| (((temp - c.lo_c) / c.width_c) as usize).min(self.n_bins - 1))
     }
 
+    /// The temperatures `[lo, hi)` that fall in `bin` (by the formula of
+    /// [`TemperatureBinner::bin_of`]): `(temp - lo_c) / width_c` is monotone in
+    /// `temp` (each rounding step is), so the bin's edges are the least
+    /// temperatures whose quotient reaches `bin` and `bin + 1`. `None` when an
+    /// edge cannot be pinned down within a few ulps (ill-scaled window).
+    #[allow(clippy::cast_precision_loss)]
+    fn bin_range(&self, bin: usize) -> Option<(f64, f64)> {
+        let c = &self.config;
+        let (lo_c, width_c) = (c.lo_c, c.width_c);
+        let quotient = |temp: f64| (temp - lo_c) / width_c;
+        let edge = |m: usize| {
+            let m = m as f64;
+            least_reaching(quotient, m, lo_c + m * width_c)
+        };
+        let lo = if bin == 0 { lo_c } else { edge(bin)?.max(lo_c) };
+        let hi = if bin + 1 == self.n_bins {
+            c.hi_c
+        } else {
+            edge(bin + 1)?.min(c.hi_c)
+        };
+        Some((lo, hi))
+    }
+
     /// [`TemperatureBinner::add`] for contiguous rows of at most
     /// [`RUN_CHANNELS`] channels. Temperature drifts slowly, so consecutive
     /// rows mostly share a bin: a run of them is accumulated in local variables
     /// (registers) rather than through memory, with the same operations in the
     /// same order as `add`, so the result is bit-identical.
+    ///
+    /// A run is the rows whose temperature stays in the bin's range
+    /// ([`TemperatureBinner::bin_range`], the two latest kept), so each row
+    /// costs two comparisons on top of the update, and the run is summed
+    /// without looking for NaN or infinities: such a value makes the run's
+    /// means or `M2` non-finite for good (NaN and infinities survive every
+    /// later update), and only then is the run done again row by row with
+    /// `add`, which skips and counts it. So is a run whose finite values
+    /// overflow, as `add` would give.
     ///
     /// `N` is the channel count fixed at compile time (0: from the
     /// configuration).
@@ -292,16 +324,31 @@ impl TemperatureBinner {
         let stride = stride(nc);
         let n = time_s.len();
         let row_at = |i: usize| &flat[i * nc..(i + 1) * nc];
+        // (bin, lo, hi) of the latest two runs: data near a bin edge goes back
+        // and forth between two bins.
+        let mut ranges = [(usize::MAX, f64::INFINITY, f64::NEG_INFINITY); 2];
         let mut i = 0;
         while i < n {
             let (t, temp, row) = (time_s[i], temperature_c[i], row_at(i));
-            let Some(bin) = self.bin_of(t, temp, row) else {
-                self.add(t, temp, row);
-                i += 1;
-                continue;
+            let (bin, lo, hi) = if temp >= ranges[0].1 && temp < ranges[0].2 {
+                ranges[0]
+            } else if temp >= ranges[1].1 && temp < ranges[1].2 {
+                ranges.swap(0, 1);
+                ranges[0]
+            } else {
+                let range = self
+                    .bin_of(t, temp, row)
+                    .and_then(|bin| self.bin_range(bin).map(|(lo, hi)| (bin, lo, hi)));
+                let Some(range) = range else {
+                    self.add(t, temp, row);
+                    i += 1;
+                    continue;
+                };
+                ranges = [range, ranges[0]];
+                range
             };
-            let a = &mut self.acc[bin * stride..(bin + 1) * stride];
-            let mut count = self.count[bin];
+            let a = &self.acc[bin * stride..(bin + 1) * stride];
+            let count = self.count[bin];
             let (mut mean_t, mut mean_temp) = (a[0], a[1]);
             let mut shift = [0.0; RUN_CHANNELS];
             let mut mean = [0.0; RUN_CHANNELS];
@@ -320,7 +367,6 @@ impl TemperatureBinner {
             let mut j = i;
             loop {
                 let (t, temp, row) = (time_s[j], temperature_c[j], row_at(j));
-                count += 1;
                 k += 1.0;
                 mean_t += (t - mean_t) / k;
                 mean_temp += (temp - mean_temp) / k;
@@ -336,17 +382,28 @@ impl TemperatureBinner {
                     *q += delta * (y - *m);
                 }
                 j += 1;
-                if j == n || self.bin_of(time_s[j], temperature_c[j], row_at(j)) != Some(bin) {
+                if j == n || !(temperature_c[j] >= lo && temperature_c[j] < hi) {
                     break;
                 }
             }
-            self.count[bin] = count;
-            let a = &mut self.acc[bin * stride..(bin + 1) * stride];
-            a[0] = mean_t;
-            a[1] = mean_temp;
-            a[2..2 + nc].copy_from_slice(shift);
-            a[2 + nc..2 + 2 * nc].copy_from_slice(mean);
-            a[2 + 2 * nc..2 + 3 * nc].copy_from_slice(m2);
+            let finite = mean_t.is_finite()
+                & mean_temp.is_finite()
+                & all_finite(shift)
+                & all_finite(mean)
+                & all_finite(m2);
+            if finite {
+                self.count[bin] = count + (j - i) as u64;
+                let a = &mut self.acc[bin * stride..(bin + 1) * stride];
+                a[0] = mean_t;
+                a[1] = mean_temp;
+                a[2..2 + nc].copy_from_slice(shift);
+                a[2 + nc..2 + 2 * nc].copy_from_slice(mean);
+                a[2 + 2 * nc..2 + 3 * nc].copy_from_slice(m2);
+            } else {
+                for r in i..j {
+                    self.add(time_s[r], temperature_c[r], row_at(r));
+                }
+            }
             i = j;
         }
     }

@@ -689,25 +689,16 @@ impl Decimator {
         let nc = self.config.n_channels;
         let min = self.config.min_count as u64;
         if sums.count.iter().all(|&c| c >= min) {
-            // Every block is kept: the same `sum / count`, written in place.
-            let (start, n) = (out.len(), sums.len());
+            // Every block is kept: the same `sum / count`, column by column.
             out.block_index.extend_from_slice(&sums.index);
             out.count.extend_from_slice(&sums.count);
-            out.time_s.resize(start + n, 0.0);
-            out.temperature_c.resize(start + n, 0.0);
-            out.channels.resize((start + n) * nc, 0.0);
-            let dst = (
-                &mut out.time_s[start..],
-                &mut out.temperature_c[start..],
-                &mut out.channels[start * nc..],
-            );
             match nc {
-                0 => block_means::<0>(sums, 0, dst),
-                1 => block_means::<1>(sums, 1, dst),
-                2 => block_means::<2>(sums, 2, dst),
-                3 => block_means::<3>(sums, 3, dst),
-                4 => block_means::<4>(sums, 4, dst),
-                _ => block_means::<0>(sums, nc, dst),
+                0 => block_means::<0>(sums, 0, out),
+                1 => block_means::<1>(sums, 1, out),
+                2 => block_means::<2>(sums, 2, out),
+                3 => block_means::<3>(sums, 3, out),
+                4 => block_means::<4>(sums, 4, out),
+                _ => block_means::<0>(sums, nc, out),
             }
             return;
         }
@@ -735,39 +726,25 @@ impl Decimator {
     }
 }
 
-/// Means `sum / count` of every block of `sums` into `time_s`, `temperature_c`
-/// and `channels` (row-major, `nc` per row; `N` fixes `nc` at compile time,
-/// 0: any). Counts are far below 2^63, where `c as i64 as f64` is `c as f64`.
+/// Appends the means `sum / count` of every block of `sums` to `out`'s
+/// `time_s`, `temperature_c` and `channels` (row-major, `nc` per row; `N`
+/// fixes `nc` at compile time, 0: any). Written once, with no zero fill
+/// first. Counts are far below 2^63, where `c as i64 as f64` is `c as f64`.
 #[allow(clippy::cast_possible_wrap, clippy::cast_precision_loss)]
-fn block_means<const N: usize>(
-    sums: &BlockSums,
-    nc: usize,
-    (time_s, temperature_c, channels): (&mut [f64], &mut [f64], &mut [f64]),
-) {
+fn block_means<const N: usize>(sums: &BlockSums, nc: usize, out: &mut DecimatedBlocks) {
     let nc = if N == 0 { nc } else { N };
-    let blocks = sums
-        .count
-        .iter()
-        .zip(&sums.sum_time)
-        .zip(&sums.sum_temp)
-        .zip(time_s.iter_mut().zip(temperature_c.iter_mut()));
-    for (((&c, &st), &sp), (t, p)) in blocks {
-        let n = c as i64 as f64;
-        *t = st / n;
-        *p = sp / n;
-    }
+    let mean = |(&sum, &c): (&f64, &u64)| sum / c as i64 as f64;
+    out.time_s
+        .extend(sums.sum_time.iter().zip(&sums.count).map(mean));
+    out.temperature_c
+        .extend(sums.sum_temp.iter().zip(&sums.count).map(mean));
     if nc == 0 {
         return;
     }
-    let rows = sums
-        .sum_ch
-        .chunks_exact(nc)
-        .zip(channels.chunks_exact_mut(nc));
-    for ((src, dst), &c) in rows.zip(&sums.count) {
+    out.channels.reserve(sums.sum_ch.len());
+    for (row, &c) in sums.sum_ch.chunks_exact(nc).zip(&sums.count) {
         let n = c as i64 as f64;
-        for (d, &v) in dst.iter_mut().zip(src) {
-            *d = v / n;
-        }
+        out.channels.extend(row.iter().map(|v| v / n));
     }
 }
 
@@ -812,8 +789,46 @@ fn next_down(x: f64) -> f64 {
     -next_up(-x)
 }
 
+/// The least `t` with `x(t) >= m`, for `x` monotone non-decreasing over the
+/// finite numbers: `guess` corrected ulp by ulp. `None` when that does not
+/// settle within a few ulps or leaves the finite numbers (ill-scaled
+/// coordinates, overflow). Shared by the decimator's block edges and the
+/// binner's bin edges.
+#[inline]
+pub(crate) fn least_reaching(x: impl Fn(f64) -> f64, m: f64, guess: f64) -> Option<f64> {
+    const MAX_STEPS: usize = 8;
+    let mut g = guess;
+    if !g.is_finite() {
+        return None;
+    }
+    // Usually the guess is the edge itself: test it and its predecessor
+    // at once (independent divisions overlap).
+    let (at, before) = (x(g), x(next_down(g)));
+    if at >= m && before < m {
+        return Some(g);
+    }
+    if at >= m {
+        for _ in 0..MAX_STEPS {
+            let below = next_down(g);
+            let xb = x(below);
+            if xb < m || xb.is_nan() {
+                return Some(g);
+            }
+            g = below;
+        }
+    } else {
+        for _ in 0..MAX_STEPS {
+            g = next_up(g);
+            if x(g) >= m {
+                return g.is_finite().then_some(g);
+            }
+        }
+    }
+    None
+}
+
 /// Whether every value is finite; branch-free, so that it vectorises.
-fn all_finite(values: &[f64]) -> bool {
+pub(crate) fn all_finite(values: &[f64]) -> bool {
     values.iter().fold(true, |ok, v| ok & v.is_finite())
 }
 
@@ -872,39 +887,10 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
     /// loop) is at least `m`. `x` is monotone in `t` (each rounding step is), so
     /// `t < boundary(k + 1)` is the same test as `floor(x(t)) <= k`. The guess
     /// `t0 + m * block_s` (`block_s = factor / rate_hz`, divided once by the
-    /// caller) is corrected ulp by ulp; `None` when that does not settle within a
-    /// few ulps (ill-scaled `t0`, overflow).
+    /// caller) is corrected ulp by ulp ([`least_reaching`]); `None` when that
+    /// does not settle within a few ulps (ill-scaled `t0`, overflow).
     fn boundary(t0: f64, rate_hz: f64, factor: f64, block_s: f64, m: f64) -> Option<f64> {
-        const MAX_STEPS: usize = 8;
-        let x = |t: f64| (t - t0) * rate_hz / factor;
-        let mut g = t0 + m * block_s;
-        if !g.is_finite() {
-            return None;
-        }
-        // Usually the guess is the edge itself: test it and its predecessor
-        // at once (independent divisions overlap).
-        let (at, before) = (x(g), x(next_down(g)));
-        if at >= m && before < m {
-            return Some(g);
-        }
-        if at >= m {
-            for _ in 0..MAX_STEPS {
-                let below = next_down(g);
-                let xb = x(below);
-                if xb < m || xb.is_nan() {
-                    return Some(g);
-                }
-                g = below;
-            }
-        } else {
-            for _ in 0..MAX_STEPS {
-                g = next_up(g);
-                if x(g) >= m {
-                    return g.is_finite().then_some(g);
-                }
-            }
-        }
-        None
+        least_reaching(|t| (t - t0) * rate_hz / factor, m, t0 + m * block_s)
     }
 
     /// Fast path for a chunk whose times are all finite and strictly
@@ -962,10 +948,14 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
                     (k, end)
                 }
             };
+            // The edge after the next block, worked out now so that its
+            // division overlaps this block's sums rather than holding up the
+            // next block's start.
+            #[allow(clippy::cast_precision_loss)]
+            let after = Self::boundary(t0, rate_hz, factor, block_s, k as f64 + 2.0);
             // Rows of the run: usually as many as last time (check both ends;
-            // times increase), otherwise scan.
-            // Otherwise step from the guess: a run is rarely more than a row or
-            // two longer or shorter than the previous one.
+            // times increase), otherwise step from the guess: a run is rarely
+            // more than a row or two longer or shorter than the previous one.
             let guess = (i + run_len).min(n);
             let j = if time_s[guess - 1] < end {
                 let mut j = guess;
@@ -1048,14 +1038,7 @@ impl<S: AsRef<[f64]> + AsMut<[f64]>> Hot<S> {
                 }
             }
             i = j;
-            next = None;
-            if i < n {
-                #[allow(clippy::cast_precision_loss)]
-                let after = k as f64 + 2.0;
-                if let Some(e2) = Self::boundary(t0, rate_hz, factor, block_s, after) {
-                    next = Some((k + 1, end, e2));
-                }
-            }
+            next = after.map(|e2| (k + 1, end, e2));
         }
         (self.index, self.lo, self.hi) = (index, lo, hi);
         (self.count, self.sum_time, self.sum_temp) = (count, sum_time, sum_temp);

@@ -237,6 +237,73 @@ proptest! {
     }
 
     #[test]
+    fn binner_runs_equal_row_by_row_on_bin_edges(
+        nc in 1usize..5,
+        picks in prop::collection::vec((0u8..8, 0usize..40, 0u8..40), 1..300),
+        lo_c in prop::sample::select(vec![-40.0, 0.0, 0.3, -2.7]),
+        width in prop::sample::select(vec![0.5, 0.1, 1.0 / 3.0, 0.7]),
+        n_bins in 1usize..12,
+    ) {
+        // Temperatures on the bin edges `lo_c + b * width` (the formula's own
+        // edges, which need not be where the quotient turns), one or two ulps
+        // either side, on the window's ends, and now and then a NaN or an
+        // infinity in the time or a channel, or a channel that overflows the
+        // accumulators (`add` then leaves them infinite or NaN).
+        #[allow(clippy::cast_precision_loss)]
+        let hi_c = lo_c + n_bins as f64 * width - 0.25 * width;
+        let n = picks.len();
+        let mut t = Vec::with_capacity(n);
+        let mut temp = Vec::with_capacity(n);
+        let mut ch = Array2::zeros((n, nc));
+        for (i, &(kind, b, bad)) in picks.iter().enumerate() {
+            #[allow(clippy::cast_precision_loss)]
+            let edge = lo_c + (b % (n_bins + 2)) as f64 * width;
+            temp.push(match kind {
+                0 | 1 => edge,
+                2 => next_up(edge),
+                3 => -next_up(-edge),
+                4 => next_up(next_up(edge)),
+                5 => hi_c,
+                6 => -next_up(-hi_c),
+                _ => edge + 0.37 * width,
+            });
+            #[allow(clippy::cast_precision_loss)]
+            t.push(i as f64 * 0.05);
+            for j in 0..nc {
+                #[allow(clippy::cast_precision_loss)]
+                let v = 1.5 + 1e-3 * ((i * 7 + j * 3) % 11) as f64;
+                ch[[i, j]] = v;
+            }
+            match bad {
+                0 => t[i] = f64::NAN,
+                1 => ch[[i, nc - 1]] = f64::INFINITY,
+                2 => ch[[i, 0]] = f64::NAN,
+                3 => ch[[i, 0]] = if i % 2 == 0 { 1.7e308 } else { -1.7e308 },
+                _ => {}
+            }
+        }
+        let config = BinnerConfig { lo_c, hi_c, width_c: width, n_channels: nc };
+        let mut fast = TemperatureBinner::new(config.clone()).unwrap();
+        fast.push(&t, &temp, ch.view()).unwrap();
+        let tall = strided(&ch);
+        let mut slow = TemperatureBinner::new(config).unwrap();
+        slow.push(&t, &temp, every_other(&tall)).unwrap();
+        match (fast.finish(), slow.finish()) {
+            (Ok(a), Ok(b)) => {
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                prop_assert_eq!(&a.count, &b.count);
+                prop_assert_eq!(bits(&a.mean), bits(&b.mean));
+                prop_assert_eq!(bits(&a.variance), bits(&b.variance));
+                prop_assert_eq!(bits(&a.time_s), bits(&b.time_s));
+                prop_assert_eq!(bits(&a.temperature_c), bits(&b.temperature_c));
+                prop_assert_eq!((a.n_below, a.n_above, a.n_nonfinite), (b.n_below, b.n_above, b.n_nonfinite));
+            }
+            (Err(_), Err(_)) => {}
+            (a, b) => prop_assert!(false, "one path failed: {:?} vs {:?}", a.is_ok(), b.is_ok()),
+        }
+    }
+
+    #[test]
     fn least_squares_slices_equal_strided_views(
         n in 0usize..200,
         p in 1usize..5,

@@ -29,7 +29,8 @@ pub(crate) fn blocks_to_py(py: Python<'_>, blocks: DecimatedBlocks) -> PyResult<
     let n = blocks.block_index.len();
     let channels = Array2::from_shape_vec((n, blocks.n_channels), blocks.channels)
         .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
-    let count: Vec<i64> = blocks.count.iter().map(|&c| c as i64).collect();
+    // In place: the collected `Vec` reuses the buffer of `blocks.count`.
+    let count: Vec<i64> = blocks.count.into_iter().map(|c| c as i64).collect();
     Ok(PyDecimatedBlocks {
         block_index: blocks.block_index.into_pyarray(py).unbind(),
         count: count.into_pyarray(py).unbind(),
