@@ -78,11 +78,29 @@ pub struct BlockedLeastSquares {
 pub struct FoldedLeastSquares {
     n_columns: usize,
     n_responses: usize,
-    blocks: Vec<LeastSquares>,
+    /// What each block keeps for its held-out error.
+    blocks: Vec<HeldOutBlock>,
+    /// The weighted rows `sqrt(w) [x | y]` of the blocks kept as rows, each
+    /// block column-major (column `c` of a block of `n` rows at `offset + c n`).
+    rows: Vec<f64>,
+    /// Rows of non-zero weight of each block.
+    rows_per_block: Vec<u64>,
     block_fold: Vec<u32>,
     /// Training factor of each fold (`None`: the fold holds no row).
     training: Vec<Option<LeastSquares>>,
     all: LeastSquares,
+}
+
+/// What a block of a [`FoldedLeastSquares`] keeps to score a fit on its rows.
+#[derive(Debug, Clone)]
+enum HeldOutBlock {
+    /// No row of non-zero weight.
+    Empty,
+    /// Its weighted rows, at `offset` in [`FoldedLeastSquares::rows`] (a
+    /// block too small to be worth a factor: its error is `||X_b β − y_b||²`).
+    Rows { offset: usize, n: usize },
+    /// Its settled factor: its error is `||R_b β − z_b||² + rss_b`.
+    Factor(LeastSquares),
 }
 
 /// In-sample and held-out fits of a [`BlockedLeastSquares`] for one fold assignment.
@@ -283,11 +301,18 @@ impl BlockedLeastSquares {
         Ok(())
     }
 
-    /// Fix a fold assignment: merge the blocks of each fold, then for each fold
+    /// Fix a fold assignment: gather the rows of each fold, then for each fold
     /// the other folds (its training data), and all of them. `block_fold[b]` is
     /// the fold of block `b` (folds are numbered 0..=max; a fold may be empty).
-    /// Costs `O(blocks · P³ + folds² · P³)` once; every query of the result is
-    /// then independent of the rows and of this cost.
+    ///
+    /// A block whose rows are all still staged (fewer than a block update's,
+    /// from 5 columns on) is not factored: its rows go straight into its fold's
+    /// factor ([`LeastSquares::absorb`]) and are kept for its held-out error; a
+    /// block with a factor is merged, and kept settled. The training factors
+    /// are merges of prefixes and suffixes of the folds (fold `k`'s is folds
+    /// `0..k` merged with folds `k+1..`), so `F` folds cost about `3 F` merges
+    /// of a triangle, not `F²`. Costs `O(rows · P² + folds · P³)` once; every
+    /// query of the result is then independent of this cost.
     ///
     /// Errors: [`Error::Shape`] when `block_fold` is not `n_blocks` long.
     pub fn folds(&self, block_fold: &[u32]) -> Result<FoldedLeastSquares> {
@@ -304,38 +329,82 @@ impl BlockedLeastSquares {
             .max()
             .unwrap_or(0);
         let empty = LeastSquares::with_responses(self.n_columns, self.n_responses, None)?;
-        // Rows still staged for a block update go in now, once: every query
-        // then reads settled factors.
-        let mut blocks = self.blocks.clone();
-        for b in &mut blocks {
-            b.settle();
-        }
         let mut folds = vec![empty.clone(); n_folds];
-        for (b, &f) in blocks.iter().zip(block_fold) {
-            folds[f as usize].merge(b)?;
+        let width = self.n_columns + self.n_responses;
+        let staged: usize = self
+            .blocks
+            .iter()
+            .filter_map(|b| b.staged_columns().map(|_| b.n_rows() as usize * width))
+            .sum();
+        let mut rows = Vec::with_capacity(staged);
+        let mut blocks = Vec::with_capacity(self.blocks.len());
+        for (b, &f) in self.blocks.iter().zip(block_fold) {
+            folds[f as usize].absorb(b);
+            blocks.push(if b.n_rows() == 0 {
+                HeldOutBlock::Empty
+            } else if let Some(columns) = b.staged_columns() {
+                let offset = rows.len();
+                for column in columns {
+                    rows.extend_from_slice(column);
+                }
+                HeldOutBlock::Rows {
+                    offset,
+                    n: b.n_rows() as usize,
+                }
+            } else {
+                let mut settled = b.clone();
+                settled.settle();
+                HeldOutBlock::Factor(settled)
+            });
         }
-        let mut all = empty.clone();
+        // Rows still staged in a fold go in now, once: every query then reads
+        // settled factors.
+        for f in &mut folds {
+            f.settle();
+        }
+        // prefix[k]: folds 0..=k merged; suffix[k]: folds k.. merged.
+        let mut prefix: Vec<LeastSquares> = Vec::with_capacity(n_folds);
         for f in &folds {
-            all.merge(f)?;
+            let mut acc = prefix.last().map_or_else(|| f.clone(), Clone::clone);
+            if prefix.last().is_some() {
+                acc.merge(f)?;
+            }
+            prefix.push(acc);
         }
+        let mut suffix: Vec<LeastSquares> = Vec::with_capacity(n_folds);
+        for f in folds.iter().skip(1).rev() {
+            let mut acc = suffix.last().map_or_else(|| f.clone(), Clone::clone);
+            if suffix.last().is_some() {
+                acc.merge(f)?;
+            }
+            suffix.push(acc);
+        }
+        suffix.reverse(); // suffix[k - 1]: folds k.. merged, for k >= 1
         let mut training = Vec::with_capacity(n_folds);
-        for k in 0..n_folds {
-            if folds[k].n_rows() == 0 {
+        for (k, fold) in folds.iter().enumerate() {
+            if fold.n_rows() == 0 {
                 training.push(None);
                 continue;
             }
-            let mut train = empty.clone();
-            for (j, f) in folds.iter().enumerate() {
-                if j != k {
-                    train.merge(f)?;
+            let before = k.checked_sub(1).map(|j| &prefix[j]);
+            let after = suffix.get(k); // folds k+1..
+            training.push(Some(match (before, after) {
+                (None, None) => empty.clone(),
+                (Some(a), None) | (None, Some(a)) => a.clone(),
+                (Some(a), Some(b)) => {
+                    let mut train = a.clone();
+                    train.merge(b)?;
+                    train
                 }
-            }
-            training.push(Some(train));
+            }));
         }
+        let all = prefix.pop().unwrap_or(empty);
         Ok(FoldedLeastSquares {
             n_columns: self.n_columns,
             n_responses: self.n_responses,
             blocks,
+            rows,
+            rows_per_block: self.blocks.iter().map(LeastSquares::n_rows).collect(),
             block_fold: block_fold.to_vec(),
             training,
             all,
@@ -406,12 +475,27 @@ impl FoldedLeastSquares {
                 pad[j] = b;
             }
         }
+        let width = self.n_columns + self.n_responses;
+        let mut residual = Vec::new();
         let mut heldout_rss_per_block = Vec::with_capacity(self.blocks.len());
         for (b, &f) in self.blocks.iter().zip(&self.block_fold) {
-            heldout_rss_per_block.push(if b.n_rows() == 0 {
-                0.0
-            } else {
-                b.residual_sum_squares_at(&padded[f as usize], response)?
+            heldout_rss_per_block.push(match b {
+                HeldOutBlock::Empty => 0.0,
+                HeldOutBlock::Factor(ls) => {
+                    ls.residual_sum_squares_at(&padded[f as usize], response)?
+                }
+                &HeldOutBlock::Rows { offset, n } => {
+                    let block = &self.rows[offset..offset + n * width];
+                    let beta = &fold_coefficients[f as usize];
+                    rows_rss(
+                        block,
+                        n,
+                        columns,
+                        beta,
+                        self.n_columns + response,
+                        &mut residual,
+                    )
+                }
             });
         }
         Ok(HeldOutFit {
@@ -420,9 +504,34 @@ impl FoldedLeastSquares {
             in_sample_rss,
             fold_coefficients,
             heldout_rss_per_block,
-            rows_per_block: self.blocks.iter().map(LeastSquares::n_rows).collect(),
+            rows_per_block: self.rows_per_block.clone(),
         })
     }
+}
+
+/// `||X β − y||²` over the `n` weighted rows of a block stored column-major
+/// (`block[c n..(c + 1) n]` is column `c`): `X` its columns `columns`, `y` its
+/// column `response_column`. `residual` is scratch.
+fn rows_rss(
+    block: &[f64],
+    n: usize,
+    columns: &[usize],
+    beta: &[f64],
+    response_column: usize,
+    residual: &mut Vec<f64>,
+) -> f64 {
+    residual.clear();
+    residual.extend(
+        block[response_column * n..(response_column + 1) * n]
+            .iter()
+            .map(|&y| -y),
+    );
+    for (&j, &b) in columns.iter().zip(beta) {
+        for (r, &x) in residual.iter_mut().zip(&block[j * n..(j + 1) * n]) {
+            *r += b * x;
+        }
+    }
+    residual.iter().map(|r| r * r).sum()
 }
 
 /// A factor reduced to `columns` (borrowed when they are all of its columns, in order).

@@ -130,6 +130,7 @@
 //! ```
 
 use std::borrow::Cow;
+use std::sync::Arc;
 
 use crate::error::{Error, Result};
 use ndarray::ArrayView2;
@@ -173,9 +174,12 @@ pub struct LeastSquares {
     n_columns: usize,
     /// Right-hand sides sharing the design (1 for [`LeastSquares::new`]).
     n_responses: usize,
-    column_names: Vec<String>,
+    /// Shared by clones (an accumulator per block is cloned from one empty one).
+    column_names: Arc<[String]>,
     /// Augmented triangle `[R | Z]`, row-major with row stride
     /// `n_columns + n_responses`. Entries left of the diagonal stay zero.
+    /// Empty (read as zeros, [`LeastSquares::rz`]) until a row is factored, so
+    /// that an accumulator of a few staged rows costs their room only.
     rz: Vec<f64>,
     /// Weighted residual sum of squares, one per response.
     rss: Vec<f64>,
@@ -249,12 +253,11 @@ impl LeastSquares {
                 names
             }
         };
-        let width = n_columns + n_responses;
         Ok(Self {
             n_columns,
             n_responses,
-            column_names,
-            rz: vec![0.0; n_columns * width],
+            column_names: column_names.into(),
+            rz: Vec::new(),
             rss: vec![0.0; n_responses],
             column_sum_squares: vec![0.0; n_columns],
             n_rows: 0,
@@ -414,6 +417,9 @@ impl LeastSquares {
         Y: IntoIterator<Item = f64>,
     {
         let n_pushed = responses.len() as u64;
+        if self.n_columns >= HOUSEHOLDER_MIN_COLUMNS {
+            self.reserve_staged(self.pending_rows + responses.len());
+        }
         let p = if P == 0 { self.n_columns } else { P };
         let m = if M == 0 { self.n_responses } else { M };
         let width = p + m;
@@ -436,10 +442,11 @@ impl LeastSquares {
         // Weights often repeat (block counts): reuse the last square root.
         let (mut last_w, mut last_sw) = (1.0_f64, 1.0_f64);
         if p >= HOUSEHOLDER_MIN_COLUMNS {
-            // Staged column-major (column c of the block at `c * HOUSEHOLDER_BLOCK_ROWS`),
-            // so the reflections sweep contiguous columns.
+            // Staged column-major (column c of the block at `c * ld`, room for
+            // every row of this push up to a full block), so the reflections
+            // sweep contiguous columns.
             const LD: usize = HOUSEHOLDER_BLOCK_ROWS;
-            block.resize(LD * width, 0.0);
+            let ld = block.len() / width;
             let mut filled = *pending_rows;
             for ((row, ys), w) in rows.zip(responses).zip(weights) {
                 if w == 0.0 {
@@ -452,14 +459,15 @@ impl LeastSquares {
                 let dst = &mut block[filled..];
                 for ((k, c), x) in (0..p).zip(css.iter_mut()).zip(row) {
                     let v = sw * x;
-                    dst[k * LD] = v;
+                    dst[k * ld] = v;
                     *c += v * v;
                 }
                 for (k, y) in (p..width).zip(ys) {
-                    dst[k * LD] = sw * y;
+                    dst[k * ld] = sw * y;
                 }
                 filled += 1;
                 if filled == LD {
+                    allocate_factor(rz, p * width);
                     reflect_block_in(rz, diag_sq, p, block, LD, rss);
                     filled = 0;
                 }
@@ -470,6 +478,7 @@ impl LeastSquares {
                 block.clear(); // nothing staged: a clone copies no scratch
             }
         } else {
+            allocate_factor(rz, p * width);
             block.resize(GIVENS_BLOCK_ROWS * width, 0.0);
             let mut filled = 0;
             for ((row, ys), w) in rows.zip(responses).zip(weights) {
@@ -528,7 +537,9 @@ impl LeastSquares {
                 ),
             });
         }
-        if other.column_names != self.column_names {
+        if !Arc::ptr_eq(&other.column_names, &self.column_names)
+            && other.column_names != self.column_names
+        {
             return Err(Error::Incompatible {
                 reason: format!(
                     "column_names differ: {:?} vs {:?}",
@@ -540,8 +551,9 @@ impl LeastSquares {
         let width = p + self.n_responses;
         let mut extra = vec![0.0; self.n_responses];
         let mut row = vec![0.0; width];
+        allocate_factor(&mut self.rz, p * width);
         for i in 0..p {
-            let src = &other.rz[i * width..(i + 1) * width];
+            let src = &other.rz()[i * width..(i + 1) * width];
             if src[i..].iter().all(|&v| v == 0.0) {
                 continue;
             }
@@ -624,7 +636,8 @@ impl LeastSquares {
                 have: self.n_rows,
             });
         }
-        if let Some(idx) = self.rz.iter().position(|v| !v.is_finite()) {
+        let rz = self.rz();
+        if let Some(idx) = rz.iter().position(|v| !v.is_finite()) {
             return Err(Error::NonFinite {
                 what: "accumulated state",
                 row: self.rows_seen,
@@ -635,7 +648,7 @@ impl LeastSquares {
         let norms = self.column_norms();
         let deficient: Vec<String> = (0..p)
             .filter(|&j| {
-                let rjj = self.rz[j * width + j].abs();
+                let rjj = rz[j * width + j].abs();
                 norms[j] == 0.0 || rjj <= RANK_TOLERANCE * norms[j]
             })
             .map(|j| self.column_names[j].clone())
@@ -645,10 +658,10 @@ impl LeastSquares {
         }
 
         // Back-substitution R b = z.
-        let r = |i: usize, j: usize| self.rz[i * width + j];
+        let r = |i: usize, j: usize| rz[i * width + j];
         let mut coefficients = vec![0.0; p];
         for i in (0..p).rev() {
-            let r_row = &self.rz[i * width..(i + 1) * width];
+            let r_row = &rz[i * width..(i + 1) * width];
             let dot: f64 = r_row[i + 1..p]
                 .iter()
                 .zip(&coefficients[i + 1..])
@@ -695,7 +708,7 @@ impl LeastSquares {
         }
 
         Ok(LstsqSolution {
-            column_names: self.column_names.clone(),
+            column_names: self.column_names.to_vec(),
             coefficients,
             covariance,
             residual_sum_squares: self.rss[j],
@@ -706,9 +719,22 @@ impl LeastSquares {
         })
     }
 
+    /// The augmented triangle `[R | Z]` (zeros before any row is factored).
+    fn rz(&self) -> &[f64] {
+        if self.rz.is_empty() {
+            &NO_FACTOR[..self.n_columns * (self.n_columns + self.n_responses)]
+        } else {
+            &self.rz
+        }
+    }
+
     /// Reflect the staged rows into `[R | Z]` (their residuals into `rss`).
     pub(crate) fn settle(&mut self) {
         if self.pending_rows > 0 {
+            allocate_factor(
+                &mut self.rz,
+                self.n_columns * (self.n_columns + self.n_responses),
+            );
             reflect_block_in(
                 &mut self.rz,
                 &mut self.diag_sq,
@@ -720,6 +746,119 @@ impl LeastSquares {
             self.pending_rows = 0;
             self.block.clear();
         }
+    }
+
+    /// Add the rows of another accumulator of the same shape (the caller
+    /// checks it; names are not compared): its factor merged as by
+    /// [`merge`](LeastSquares::merge), and its staged rows staged here after this
+    /// one's, reflected in with them a full block at a time. Equal to a merge
+    /// up to rounding; gathering many accumulators of a few staged rows each
+    /// (a fold's blocks) costs one block update per `HOUSEHOLDER_BLOCK_ROWS`
+    /// rows instead of a settle and a merge of a triangle each.
+    pub(crate) fn absorb(&mut self, other: &LeastSquares) {
+        debug_assert!(other.n_columns == self.n_columns && other.n_responses == self.n_responses);
+        let p = self.n_columns;
+        let m = self.n_responses;
+        let width = p + m;
+        let mut extra = [0.0; MAX_COLUMNS];
+        let extra = &mut extra[..m];
+        // Rows in the other's triangle (none when all its rows are staged: then it is zero).
+        if other.n_rows > other.pending_rows as u64 {
+            allocate_factor(&mut self.rz, p * width);
+            let mut row = [0.0; 2 * MAX_COLUMNS];
+            let row = &mut row[..width];
+            for i in 0..p {
+                let src = &other.rz()[i * width..(i + 1) * width];
+                if src[i..].iter().all(|&v| v == 0.0) {
+                    continue;
+                }
+                row.copy_from_slice(src);
+                rotate_block_in(&mut self.rz, &mut self.diag_sq, p, row, i, extra);
+            }
+        }
+        if other.pending_rows > 0 {
+            const LD: usize = HOUSEHOLDER_BLOCK_ROWS;
+            self.reserve_staged(self.pending_rows + other.pending_rows);
+            let (ld, other_ld) = (self.block.len() / width, other.block.len() / width);
+            let mut taken = 0;
+            while taken < other.pending_rows {
+                let filled = self.pending_rows;
+                let take = (LD - filled).min(other.pending_rows - taken);
+                for (dst, src) in self
+                    .block
+                    .chunks_exact_mut(ld)
+                    .zip(other.block.chunks_exact(other_ld))
+                {
+                    dst[filled..filled + take].copy_from_slice(&src[taken..taken + take]);
+                }
+                self.pending_rows += take;
+                taken += take;
+                if self.pending_rows == LD {
+                    allocate_factor(&mut self.rz, p * width);
+                    reflect_block_in(
+                        &mut self.rz,
+                        &mut self.diag_sq,
+                        p,
+                        &mut self.block,
+                        LD,
+                        &mut self.rss,
+                    );
+                    self.pending_rows = 0;
+                }
+            }
+        }
+        for ((acc, &o), &e) in self.rss.iter_mut().zip(&other.rss).zip(extra.iter()) {
+            *acc += o + e;
+        }
+        for (a, b) in self
+            .column_sum_squares
+            .iter_mut()
+            .zip(&other.column_sum_squares)
+        {
+            *a += b;
+        }
+        self.n_rows += other.n_rows;
+        self.rows_seen += other.rows_seen;
+    }
+
+    /// Make room to stage `rows` rows (at most a block's, `HOUSEHOLDER_BLOCK_ROWS`),
+    /// keeping the staged ones: the staging is `n_columns + n_responses`
+    /// columns of `ld` rows, `ld` grown (at least doubled) only as rows come,
+    /// so that an accumulator of a few rows (a block of a
+    /// [`BlockedLeastSquares`](crate::BlockedLeastSquares)) takes their room, not a block's.
+    fn reserve_staged(&mut self, rows: usize) {
+        let width = self.n_columns + self.n_responses;
+        let ld = self.block.len() / width;
+        let need = rows.min(HOUSEHOLDER_BLOCK_ROWS);
+        if ld >= need {
+            return;
+        }
+        let grown_ld = need.max((2 * ld).min(HOUSEHOLDER_BLOCK_ROWS));
+        let mut grown = vec![0.0; grown_ld * width];
+        let n = self.pending_rows;
+        if n > 0 {
+            for (dst, src) in grown
+                .chunks_exact_mut(grown_ld)
+                .zip(self.block.chunks_exact(ld))
+            {
+                dst[..n].copy_from_slice(&src[..n]);
+            }
+        }
+        self.block = grown;
+    }
+
+    /// The weighted rows `sqrt(w) [x | y]` of an accumulator that holds all its
+    /// rows staged (none yet in its factor), column by column (`n_columns +
+    /// n_responses` slices of `n_rows` values each); `None` when some rows are
+    /// in the factor. An accumulator without rows gives empty columns.
+    pub(crate) fn staged_columns(&self) -> Option<impl Iterator<Item = &[f64]>> {
+        if self.n_rows != self.pending_rows as u64 {
+            return None;
+        }
+        let n = self.pending_rows;
+        let width = self.n_columns + self.n_responses;
+        let ld = self.block.len() / width;
+        Some((0..width).map(move |c| &self.block[c * ld..c * ld + n]))
     }
 
     /// This state with no staged rows: itself, or a settled copy (`O(p^2)`
@@ -747,7 +886,7 @@ impl LeastSquares {
                 if s.is_finite() && s >= f64::MIN_POSITIVE {
                     s.sqrt()
                 } else {
-                    (0..=j).fold(0.0_f64, |acc, i| acc.hypot(self.rz[i * width + j]))
+                    (0..=j).fold(0.0_f64, |acc, i| acc.hypot(self.rz()[i * width + j]))
                 }
             })
             .collect()
@@ -787,9 +926,10 @@ impl LeastSquares {
             });
         }
         let width = p + self.n_responses;
+        let rz = self.rz();
         let mut sum = self.rss[response];
         for i in 0..p {
-            let row = &self.rz[i * width..(i + 1) * width];
+            let row = &rz[i * width..(i + 1) * width];
             let fitted: f64 = row[i..p]
                 .iter()
                 .zip(&coefficients[i..])
@@ -812,7 +952,7 @@ impl LeastSquares {
         let norms = self.column_norms();
         (0..p)
             .filter(|&j| {
-                let rjj = self.rz[j * width + j].abs();
+                let rjj = self.rz()[j * width + j].abs();
                 norms[j] == 0.0 || rjj <= RANK_TOLERANCE * norms[j]
             })
             .collect()
@@ -853,8 +993,9 @@ impl LeastSquares {
         let new_width = q + m;
         let mut extra = vec![0.0; m];
         let mut row = vec![0.0; new_width];
+        allocate_factor(&mut out.rz, q * new_width);
         for i in 0..p {
-            let src = &self.rz[i * width..(i + 1) * width];
+            let src = &self.rz()[i * width..(i + 1) * width];
             for (dst, &j) in row.iter_mut().zip(&keep) {
                 *dst = src[j];
             }
@@ -939,8 +1080,9 @@ impl LeastSquares {
         let width = p + m;
         let mut extra = vec![0.0; m];
         let mut row = vec![0.0; q + m];
+        allocate_factor(&mut out.rz, q * (q + m));
         for i in 0..p {
-            let src = &self.rz[i * width..(i + 1) * width];
+            let src = &self.rz()[i * width..(i + 1) * width];
             for (dst, &j) in row.iter_mut().zip(columns) {
                 *dst = src[j];
             }
@@ -1036,7 +1178,7 @@ impl LeastSquares {
         let width = p + self.n_responses;
         let mut coefficients = vec![0.0; p];
         for i in (0..p).rev() {
-            let r_row = &self.rz[i * width..(i + 1) * width];
+            let r_row = &self.rz()[i * width..(i + 1) * width];
             let dot: f64 = r_row[i + 1..p]
                 .iter()
                 .zip(&coefficients[i + 1..])
@@ -1093,6 +1235,17 @@ pub(crate) fn first_invalid(
     Ok(())
 }
 
+/// The factor `[R | Z]` of an accumulator that has factored no row: zeros, as
+/// many as the widest one holds (`MAX_COLUMNS` columns and responses).
+static NO_FACTOR: [f64; MAX_COLUMNS * 2 * MAX_COLUMNS] = [0.0; MAX_COLUMNS * 2 * MAX_COLUMNS];
+
+/// Give an empty (never factored) `[R | Z]` its `len` zeros.
+fn allocate_factor(rz: &mut Vec<f64>, len: usize) {
+    if rz.is_empty() {
+        rz.resize(len, 0.0);
+    }
+}
+
 /// Rows per block of Givens rotations in [`LeastSquares::push`] (below
 /// `HOUSEHOLDER_MIN_COLUMNS` columns).
 const GIVENS_BLOCK_ROWS: usize = 32;
@@ -1108,8 +1261,8 @@ const HOUSEHOLDER_BLOCK_ROWS: usize = 64;
 /// Triangularise `[R | Z]` stacked on a block of `n` rows by `p` Householder
 /// reflections, and add to `rss` the squares of what is left of the block's
 /// response columns. The block is column-major: column `c` (of `p + m`,
-/// `m = rss.len()`) holds its `n <= HOUSEHOLDER_BLOCK_ROWS` values from
-/// `c * HOUSEHOLDER_BLOCK_ROWS`; it is overwritten.
+/// `m = rss.len()`) holds its `n <= ld` values from `c * ld`, where
+/// `ld = block.len() / (p + m) <= HOUSEHOLDER_BLOCK_ROWS`; it is overwritten.
 ///
 /// Reflection `j` zeroes column `j` of the block against `R_jj`. As `R` is
 /// upper triangular and columns `0..j` of the block are already zero, it acts
@@ -1141,15 +1294,15 @@ fn reflect_block_in(
     n: usize,
     rss: &mut [f64],
 ) {
-    const LD: usize = HOUSEHOLDER_BLOCK_ROWS;
     let width = p + rss.len();
-    debug_assert!(n <= LD && block.len() == LD * width);
+    let ld = block.len() / width;
+    debug_assert!(n <= ld && ld <= HOUSEHOLDER_BLOCK_ROWS && block.len() == ld * width);
     if n == 0 {
         return;
     }
     for j in 0..p {
-        let (head, tail) = block.split_at_mut((j + 1) * LD);
-        let b = &mut head[j * LD..j * LD + n];
+        let (head, tail) = block.split_at_mut((j + 1) * ld);
+        let b = &mut head[j * ld..j * ld + n];
         let norm_sq = dot(b, b);
         if norm_sq == 0.0 && b.iter().all(|&v| v == 0.0) {
             continue; // nothing to annihilate: the reflection is the identity
@@ -1160,7 +1313,7 @@ fn reflect_block_in(
             let mut rows = vec![0.0; n * width];
             for (i, row) in rows.chunks_exact_mut(width).enumerate() {
                 for (c, v) in row.iter_mut().enumerate().skip(j) {
-                    *v = block[c * LD + i];
+                    *v = block[c * ld + i];
                 }
             }
             rotate_block_in(rz, diag_sq, p, &mut rows, j, rss);
@@ -1185,7 +1338,7 @@ fn reflect_block_in(
         let h = &*b;
         r_row[0] = s;
         diag_sq[j] = s_sq;
-        for (r, column) in r_row[1..].iter_mut().zip(tail.chunks_exact_mut(LD)) {
+        for (r, column) in r_row[1..].iter_mut().zip(tail.chunks_exact_mut(ld)) {
             let column = &mut column[..n];
             let w = h0 * *r + dot(h, column);
             *r -= h0 * w;
@@ -1194,7 +1347,7 @@ fn reflect_block_in(
             }
         }
     }
-    for (acc, column) in rss.iter_mut().zip(block[p * LD..].chunks_exact(LD)) {
+    for (acc, column) in rss.iter_mut().zip(block[p * ld..].chunks_exact(ld)) {
         let column = &column[..n];
         *acc += dot(column, column);
     }
@@ -1492,6 +1645,7 @@ mod tests {
             for (css, &v) in ls.column_sum_squares.iter_mut().zip(&row[..p]) {
                 *css += v * v;
             }
+            allocate_factor(&mut ls.rz, p * (p + m));
             rotate_block_in(&mut ls.rz, &mut ls.diag_sq, p, &mut row, 0, &mut ls.rss);
             ls.n_rows += 1;
         }
@@ -1604,7 +1758,7 @@ mod tests {
     fn bits(ls: &LeastSquares) -> Vec<u64> {
         let settled = ls.settled();
         settled
-            .rz
+            .rz()
             .iter()
             .chain(&settled.rss)
             .chain(&settled.column_sum_squares)

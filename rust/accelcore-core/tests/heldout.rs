@@ -465,3 +465,172 @@ fn subset_queries_refuse_bad_columns_and_responses() {
     let b = folds.cross_validate(&[2, 0], 1).unwrap();
     assert!((b.coefficients[1] - a.coefficients[1] - 1.0).abs() < 1e-10);
 }
+
+/// Uniform in [0, 1) from a counter (xorshift-multiply), for designs built inline.
+fn uniform_at(seed: u64, i: usize, j: usize) -> f64 {
+    let mut s = seed ^ ((i as u64) << 20) ^ (j as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    s = s
+        .wrapping_mul(6_364_136_223_846_793_005)
+        .wrapping_add(1_442_695_040_888_963_407);
+    s ^= s >> 29;
+    s = s.wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    s ^= s >> 32;
+    (s >> 11) as f64 / (1_u64 << 53) as f64
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(96))]
+
+    /// Blocks of fewer rows than columns (kept as rows, gathered into their
+    /// folds' factors) mixed with a block of a full update's rows and more (kept
+    /// as a factor) and empty blocks and folds: the held-out error of every
+    /// block, the coefficients of every fold and which columns are held at zero
+    /// equal refitting each fold's training rows in one accumulator, for designs
+    /// with a column dependent on earlier ones and a column only one fold sees.
+    #[test]
+    fn blocks_of_few_rows_equal_refitting_each_fold(
+        seed in any::<u64>(),
+        p in 5_usize..=20,
+        sizes in prop::collection::vec(0_usize..30, 4..16),
+        big in any::<bool>(),
+        n_folds in 2_u32..7,
+        dependent in any::<bool>(),
+        local in any::<bool>(),
+        response in 0_usize..2,
+        cut in 0.0_f64..1.0,
+    ) {
+        let mut sizes = sizes;
+        if big {
+            sizes[0] = 70; // a factored block (more rows than a block update)
+        }
+        let n_blocks = sizes.len();
+        let block: Vec<u32> = sizes
+            .iter()
+            .enumerate()
+            .flat_map(|(b, &s)| std::iter::repeat_n(b as u32, s))
+            .collect();
+        let n = block.len();
+        // Fold n_folds - 1 is left empty when there are enough folds.
+        let block_fold: Vec<u32> = (0..n_blocks)
+            .map(|b| (b as u32) % n_folds.max(2).saturating_sub(u32::from(n_folds > 2)))
+            .collect();
+        let local_fold = block_fold[n_blocks - 1];
+        let mut x = Array2::from_shape_fn((n, p), |(i, j)| {
+            if j == 0 { 1.0 } else { 2.0 * uniform_at(seed, i, j) - 1.0 }
+        });
+        if dependent {
+            // Column 3 = column 1 + 2 column 2: the later one (3) is held at zero.
+            for i in 0..n {
+                x[[i, 3]] = x[[i, 1]] + 2.0 * x[[i, 2]];
+            }
+        }
+        if local {
+            // Column p - 1 only in the last block's fold: its training data lack it.
+            for i in 0..n {
+                if block_fold[block[i] as usize] != local_fold {
+                    x[[i, p - 1]] = 0.0;
+                }
+            }
+        }
+        let ys = Array2::from_shape_fn((n, 2), |(i, r)| {
+            (0..p).map(|j| x[[i, j]] * (j + r + 1) as f64).sum::<f64>()
+                + 0.1 * (uniform_at(seed, i, p + r) - 0.5)
+        });
+        let w: Vec<f64> = (0..n)
+            .map(|i| if i % 7 == 3 { 0.0 } else { 0.5 + 1.5 * uniform_at(seed, i, 2 * p) })
+            .collect();
+        let y: Vec<f64> = ys.column(response).to_vec();
+        prop_assume!(w.iter().any(|&v| v > 0.0));
+
+        let mut cv = BlockedLeastSquares::with_responses(p, 2, n_blocks).unwrap();
+        let c = (cut * n as f64) as usize;
+        for r in [0..c, c..n] {
+            let rows = ndarray::Slice::from(r.clone());
+            cv.push_multi(
+                x.slice_axis(Axis(0), rows),
+                ys.slice_axis(Axis(0), rows),
+                Some(&w[r.clone()]),
+                &block[r],
+            ).unwrap();
+        }
+        let every: Vec<usize> = (0..p).collect();
+        let fit = cv.folds(&block_fold).unwrap().cross_validate(&every, response).unwrap();
+
+        let folds_used = *block_fold.iter().max().unwrap() + 1;
+        prop_assert_eq!(fit.fold_coefficients.len(), folds_used as usize);
+        for k in 0..folds_used {
+            let held: Vec<usize> = (0..n).filter(|&i| block_fold[block[i] as usize] == k).collect();
+            if held.iter().all(|&i| w[i] == 0.0) {
+                prop_assert!(fit.fold_coefficients[k as usize].is_empty());
+                continue;
+            }
+            let train: Vec<usize> = (0..n).filter(|&i| block_fold[block[i] as usize] != k).collect();
+            let mut ls = LeastSquares::new(p, None).unwrap();
+            let wt: Vec<f64> = train.iter().map(|&i| w[i]).collect();
+            let yt: Vec<f64> = train.iter().map(|&i| y[i]).collect();
+            ls.push(sub_rows(&x, &train).view(), &yt, Some(&wt)).unwrap();
+            let got = &fit.fold_coefficients[k as usize];
+            if ls.n_rows() == 0 {
+                prop_assert!(got.iter().all(|&b| b == 0.0));
+                continue;
+            }
+            let (beta, dropped) = ls.solve_identifiable(0).unwrap();
+            // The same columns held at zero: the rank test sees |R_jj| of a
+            // dependent (or absent) column at rounding level (~1e-15 of its norm)
+            // and of the others at O(1) of it, far on either side of 1e-10.
+            for (j, (&a, &b)) in got.iter().zip(&beta).enumerate() {
+                prop_assert_eq!(a == 0.0, dropped.contains(&j) || b == 0.0, "fold {} column {}", k, j);
+            }
+            let kept: Vec<usize> = (0..p).filter(|j| !dropped.contains(j)).collect();
+            if kept.is_empty() {
+                continue;
+            }
+            let sol = ls.select_columns(&kept).unwrap().finish().unwrap();
+            let kappa = sol.condition_number_scaled;
+            prop_assume!(kappa < 1e6);
+            // Scaled coefficients (each times its column's weighted norm in the
+            // training rows): both routes are backward-stable QR solutions of
+            // the same rows, each within e (kappa |x_s| + kappa^2 |r|) of the exact
+            // one, e = 8 q sqrt(n) eps (as in the regression tests; Higham Thm 20.1).
+            let norm = |v: &mut dyn Iterator<Item = f64>| v.fold(0.0_f64, f64::hypot);
+            let col_norm: Vec<f64> = (0..p)
+                .map(|j| norm(&mut train.iter().map(|&i| w[i].sqrt() * x[[i, j]])))
+                .collect();
+            let xs = norm(&mut kept.iter().map(|&j| beta[j] * col_norm[j]));
+            let r = sol.residual_sum_squares.sqrt();
+            let e = 8.0 * kept.len() as f64 * (train.len() as f64).sqrt() * EPS;
+            let d_beta = 2.0 * e * (kappa * xs + kappa * kappa * r);
+            let diff = norm(&mut kept.iter().map(|&j| (got[j] - beta[j]) * col_norm[j]));
+            prop_assert!(diff <= d_beta, "fold {}: |d beta_s| {:e} > {:e} (kappa {:e})", k, diff, d_beta, kappa);
+            for b in (0..n_blocks).filter(|&b| block_fold[b] == k) {
+                let rows: Vec<usize> = (0..n).filter(|&i| block[i] as usize == b).collect();
+                let want = direct_rss(&x, &y, &w, &beta, &rows);
+                // ||A_b (beta + d) - y_b||^2 moves by 2 |r_b| |A_b,s| |d_s| + (|A_b,s| |d_s|)^2,
+                // |A_b,s| <= its Frobenius norm (columns scaled as above); summing the
+                // squares of n_b rows rounds by n_b eps (|y| + sum |x beta|)^2 on each side.
+                let (xr, wr, cn) = (&x, &w, &col_norm);
+                let frobenius = norm(&mut rows.iter().flat_map(|&i| {
+                    kept.iter().map(move |&j| wr[i].sqrt() * xr[[i, j]] / cn[j].max(f64::MIN_POSITIVE))
+                }));
+                let moved = frobenius * d_beta;
+                let scale: f64 = rows.iter().map(|&i| {
+                    let s: f64 = (0..p).map(|j| (x[[i, j]] * beta[j]).abs()).sum();
+                    w[i] * (y[i].abs() + s).powi(2)
+                }).sum();
+                let bound = 2.0 * want.sqrt() * moved + moved * moved
+                    + 2.0 * (rows.len() + p) as f64 * EPS * scale;
+                let got_b = fit.heldout_rss_per_block[b];
+                prop_assert!((got_b - want).abs() <= bound, "block {}: {:e} vs {:e}, bound {:e}", b, got_b, want, bound);
+            }
+        }
+        let weighted: Vec<u64> = (0..n_blocks)
+            .map(|b| (0..n).filter(|&i| block[i] as usize == b && w[i] > 0.0).count() as u64)
+            .collect();
+        prop_assert_eq!(&fit.rows_per_block, &weighted);
+        // In-sample: all rows in one accumulator, the same columns held at zero.
+        let mut whole = LeastSquares::new(p, None).unwrap();
+        whole.push(x.view(), &y, Some(&w)).unwrap();
+        let (_, dropped) = whole.solve_identifiable(0).unwrap();
+        prop_assert_eq!(&fit.not_identified, &dropped);
+    }
+}
