@@ -214,6 +214,7 @@ class Engine:
         self._within_total = {a: float(self._within[a].sum()) for a in AXES}
         self._wsum = float(self.w.sum())
         self._memo: dict[tuple[str, tuple[_Key, ...]], HeldOutFit] = {}
+        self._by_terms: dict[tuple[str, tuple[Term, ...]], HeldOutFit | None] = {}
         self._fixed_keys = {a: {_loose_key(t) for t, _ in self.fixed[a]} for a in AXES}
         self._free: dict[tuple[str, tuple[Term, ...]], tuple[Term, ...]] = {}
         #: Full fits of axis models on every sample (:func:`.parameters.fit_models`).
@@ -467,6 +468,21 @@ class Engine:
         """Column keys of the free terms of an axis model, in term order."""
         return tuple(_key(t) for t in self.free_terms(axis, terms))
 
+    def _heldout_of(self, axis: str, terms: Sequence[Term]) -> HeldOutFit | None:
+        """:meth:`_heldout` of an axis model's free columns, kept by its terms.
+
+        Terms keep their hash; a model's column keys (bases) would be hashed anew at
+        every lookup, and the selection asks for the same models many times.
+        """
+        memo_key = (axis, tuple(terms))
+        if memo_key in self._by_terms:
+            return self._by_terms[memo_key]
+        fit = self._heldout(axis, self._keys(axis, terms))
+        if len(self._by_terms) >= self.memo_size:
+            self._by_terms.clear()
+        self._by_terms[memo_key] = fit
+        return fit
+
     def _heldout(self, axis: str, keys: tuple[_Key, ...]) -> HeldOutFit | None:
         """Held-out fit of the columns ``keys`` for ``axis`` (None: no free column)."""
         if not keys:
@@ -520,7 +536,7 @@ class Engine:
 
     def cv(self, axis: str, terms: Sequence[Term]) -> CV:
         """Held-out error per block and in-sample error of an axis model."""
-        held = self._heldout(axis, self._keys(axis, terms))
+        held = self._heldout_of(axis, terms)
         if held is None:
             y2 = self.w * self.y[axis] ** 2
             sse_blocks = np.bincount(

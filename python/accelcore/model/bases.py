@@ -92,10 +92,6 @@ class Basis(ABC):
     splitting its name.
     """
 
-    def __getstate__(self) -> dict[str, object]:
-        # The kept hash (:func:`_hash_once`) is of this process (str hashes are salted).
-        return {k: v for k, v in self.__dict__.items() if k != "_hash"}
-
     #: True when the value at a sample depends on earlier samples or on the run's
     #: start (lag filters, dT/dt, elapsed time): compensation then carries state.
     stateful: ClassVar[bool] = False
@@ -460,36 +456,3 @@ class SquaredGravity(Basis):
                 f"the model term basis {self.name!r} needs the specific force (gravity_g)"
             )
         return self.at_gravity(features.gravity_g, len(features))
-
-
-def _hash_once(cls: type[Basis]) -> None:
-    """Keep a basis' hash once computed.
-
-    Bases key the diagnosis' caches (thousands of lookups per run, a hinge hashing
-    its inner basis each time).
-    """
-    computed = cls.__hash__
-
-    def __hash__(self: Basis) -> int:
-        found: int | None = self.__dict__.get("_hash")
-        if found is None:
-            found = computed(self)
-            object.__setattr__(self, "_hash", found)
-        return found
-
-    cls.__hash__ = __hash__  # type: ignore[method-assign,assignment]
-
-
-for _cls in (
-    Constant,
-    TemperaturePower,
-    LaggedTemperaturePower,
-    TemperatureRate,
-    Elapsed,
-    Extra,
-    Hinge,
-    Decay,
-    RunStep,
-    SquaredGravity,
-):
-    _hash_once(_cls)
