@@ -8,10 +8,17 @@
 //! QR form, never normal equations — so that:
 //!
 //! - the fit without fold `k` is the [`merge`](LeastSquares::merge) of the other
-//!   folds' factors (exact algebra, no row is visited again);
+//!   folds' factors (exact algebra, no row is visited again; prefix and suffix
+//!   merges, so `F` folds cost about `3 F` merges);
 //! - the held-out error of block `b` at coefficients `β` is
 //!   `||R_b β − z_b||² + rss_b` ([`LeastSquares::residual_sum_squares_at`]),
 //!   again without its rows;
+//! - but a block of fewer rows than a block update's (the usual case: tens of
+//!   rows, from 5 columns on) is never factored on its own: its weighted rows,
+//!   still staged in its accumulator, go straight into its fold's factor, and
+//!   its held-out error is `||X_b β − y_b||²` from those rows (a `p x p`
+//!   triangle per block would cost more to make, merge and score than the
+//!   rows it holds);
 //! - a column a training set cannot identify is held at zero
 //!   ([`LeastSquares::solve_identifiable`]) instead of failing the fold.
 //!
@@ -29,9 +36,10 @@
 //! in any order, for one response: each training factor is reduced to the
 //! subset ([`LeastSquares::select_columns`], exact algebra), and each block is
 //! scored from its full factor with the coefficients zero-padded
-//! (`||R_b β − z_b||² + rss_b`, exact). A query costs
-//! `O(folds · P · q² + blocks · P²)` for `P` columns in all and `q` selected,
-//! whatever the number of rows.
+//! (`||R_b β − z_b||² + rss_b`, exact), or from its rows and the `q` selected
+//! columns. A query costs `O(folds · P · q² + blocks · P²)` for `P` columns in
+//! all and `q` selected (`O(rows · q)` for the blocks kept as rows), whatever
+//! the number of rows.
 //!
 //! # Example
 //!

@@ -757,6 +757,14 @@ impl LeastSquares {
     /// rows instead of a settle and a merge of a triangle each.
     pub(crate) fn absorb(&mut self, other: &LeastSquares) {
         debug_assert!(other.n_columns == self.n_columns && other.n_responses == self.n_responses);
+        if self.rows_seen == 0 {
+            // Nothing here yet: the other's state is the answer, exactly (a
+            // fold of one block, as the time-constant search's trials make).
+            let names = Arc::clone(&self.column_names);
+            self.clone_from(other);
+            self.column_names = names;
+            return;
+        }
         let p = self.n_columns;
         let m = self.n_responses;
         let width = p + m;
