@@ -32,7 +32,7 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 #: Most samples averaged into one window.
-MAX_WINDOW = 64
+MAX_WINDOW = 32
 
 #: Largest share of a response's weighted square sum that the observables' variation
 #: inside the windows may explain (beyond chance) for the windows to be kept.
