@@ -144,7 +144,7 @@ def test_a_file_with_an_unknown_basis_is_refused_at_load(tmp_path: Path) -> None
 
 
 def test_kept_hashes_do_not_travel_with_pickles() -> None:
-    """Terms and bases keep their hash; a pickle must not carry it to another process.
+    """Terms keep their hash; a pickle must not carry it (nor a basis one) to another process.
 
     String hashes are salted per process, so a carried hash would be wrong there: the
     unpickled object must hash as a freshly built equal one, and hold no kept hash.

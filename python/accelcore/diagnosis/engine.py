@@ -90,36 +90,34 @@ class Engine:
         self.record_names = record_names(self.records)
         self.t_ref_c = base.t_ref_c
         self.references = dict(base.references)
-        cut = cut_parts(
+        parts = cut_parts(
             self.records,
             self.record_names,
             base,
             steady_c_per_min=steady_c_per_min,
             corrections=corrections,
         )
-        feats, grav, out, wts, run_idx = cut.features, cut.gravity, cut.output, cut.weight, cut.run
-        part_run, part_leg, leg_kinds, rates = cut.run, cut.leg, cut.leg_kinds, cut.rate
-        self._wholes = cut.wholes
-        gather = cut.gather
-        self.data = Stacked(feats, grav, out, wts, run_idx)
-        self._gather = np.concatenate(gather)
-        self.part_run = part_run
-        self.part_leg = part_leg
+        feats = parts.features
+        self._wholes = parts.wholes
+        self.data = Stacked(feats, parts.gravity, parts.output, parts.weight, parts.run)
+        self._gather = np.concatenate(parts.gather)
+        self.part_run = parts.run
+        self.part_leg = parts.leg
         sizes = [len(f) for f in feats]
         self.n = int(sum(sizes))
         self.part_start = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
-        self.w = np.concatenate(wts)
+        self.w = np.concatenate(parts.weight)
         self.gravity = np.vstack(
-            [np.broadcast_to(g, (s, 3)) for g, s in zip(grav, sizes, strict=True)]
+            [np.broadcast_to(g, (s, 3)) for g, s in zip(parts.gravity, sizes, strict=True)]
         )
-        self.output = np.vstack(out)
+        self.output = np.vstack(parts.output)
         #: Distinct gravity values each axis sees (2 or more: offset and gain told apart).
         self.gravity_values = tuple(int(np.unique(self.gravity[:, i]).size) for i in range(3))
         self.temperature = np.concatenate([f.temperature_c for f in feats])
         self.elapsed_s = np.concatenate([np.asarray(f.time_s) for f in feats])
-        self.rate = np.concatenate(rates)
+        self.rate = np.concatenate(parts.rate_c_per_min)
         self.sample_part = np.repeat(np.arange(len(feats)), sizes)
-        self.sample_run = np.repeat(np.asarray(part_run), sizes)
+        self.sample_run = np.repeat(np.asarray(parts.run), sizes)
         self.extras = {
             name: np.concatenate([np.asarray(f.extras[name]) for f in feats])
             for name in session.extra_columns
@@ -136,11 +134,11 @@ class Engine:
         )
         self.scheme, self.fold_names, self.block_fold = choose_folds(
             folds,
-            part_run,
-            part_leg,
-            grav,
+            parts.run,
+            parts.leg,
+            parts.gravity,
             [rec.label for rec in self.records],
-            leg_kinds,
+            parts.leg_kinds,
             self.block_part,
             self.elapsed_s[self.block_start],
         )

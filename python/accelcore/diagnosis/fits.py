@@ -59,13 +59,6 @@ class Fit:
     beta_fold: FloatArray
     rss_in: float
 
-    @property
-    def x(self) -> FloatArray:
-        """Return the design, shape (n, p) (stacked on demand)."""
-        if not self.columns:
-            return np.zeros((0, 0))
-        return np.column_stack(self.columns)
-
     def fitted(self, beta: FloatArray, start: int = 0, stop: int | None = None) -> FloatArray:
         """Return the design times ``beta`` on the samples ``start:stop``."""
         out: FloatArray | None = None

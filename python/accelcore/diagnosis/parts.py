@@ -43,7 +43,7 @@ class Parts:
         Record and leg of each part.
     leg_kinds : dict
         ``"heating"``, ``"cooling"`` or ``"steady"`` of each (record, leg).
-    rate : list of ndarray
+    rate_c_per_min : list of ndarray
         Rate of temperature of each part's samples, °C/min.
     wholes : list of (ndarray, ndarray)
         Each record's time since its start (s) and temperature (°C), whole.
@@ -58,7 +58,7 @@ class Parts:
     run: list[int]
     leg: list[int]
     leg_kinds: dict[tuple[int, int], str]
-    rate: list[FloatArray]
+    rate_c_per_min: list[FloatArray]
     wholes: list[tuple[FloatArray, FloatArray]]
     gather: list[NDArray[np.int64]]
 
@@ -108,7 +108,7 @@ def cut_parts(
             out.run.append(i)
             out.leg.append(leg)
             out.leg_kinds[(i, leg)] = kinds[leg]
-            out.rate.append(rate[keep])
+            out.rate_c_per_min.append(rate[keep])
         out.wholes.append((time_s, np.asarray(run.temperature_c, dtype=np.float64)))
         offset += len(run)
     if not out.features:

@@ -549,17 +549,10 @@ impl LeastSquares {
         }
         let p = self.n_columns;
         let width = p + self.n_responses;
-        let mut extra = vec![0.0; self.n_responses];
-        let mut row = vec![0.0; width];
+        let mut extra = [0.0; MAX_COLUMNS];
+        let extra = &mut extra[..self.n_responses];
         allocate_factor(&mut self.rz, p * width);
-        for i in 0..p {
-            let src = &other.rz()[i * width..(i + 1) * width];
-            if src[i..].iter().all(|&v| v == 0.0) {
-                continue;
-            }
-            row.copy_from_slice(src);
-            rotate_block_in(&mut self.rz, &mut self.diag_sq, p, &mut row, i, &mut extra);
-        }
+        self.rotate_triangle_in(other, extra);
         if other.pending_rows > 0 {
             // The other's staged rows are data rows: reflected in here directly
             // (this accumulator's own staged rows stay staged).
@@ -570,21 +563,10 @@ impl LeastSquares {
                 p,
                 &mut staged,
                 other.pending_rows,
-                &mut extra,
+                extra,
             );
         }
-        for ((acc, &o), &e) in self.rss.iter_mut().zip(&other.rss).zip(&extra) {
-            *acc += o + e;
-        }
-        for (a, b) in self
-            .column_sum_squares
-            .iter_mut()
-            .zip(&other.column_sum_squares)
-        {
-            *a += b;
-        }
-        self.n_rows += other.n_rows;
-        self.rows_seen += other.rows_seen;
+        self.add_tallies(other, extra);
         Ok(())
     }
 
@@ -773,16 +755,7 @@ impl LeastSquares {
         // Rows in the other's triangle (none when all its rows are staged: then it is zero).
         if other.n_rows > other.pending_rows as u64 {
             allocate_factor(&mut self.rz, p * width);
-            let mut row = [0.0; 2 * MAX_COLUMNS];
-            let row = &mut row[..width];
-            for i in 0..p {
-                let src = &other.rz()[i * width..(i + 1) * width];
-                if src[i..].iter().all(|&v| v == 0.0) {
-                    continue;
-                }
-                row.copy_from_slice(src);
-                rotate_block_in(&mut self.rz, &mut self.diag_sq, p, row, i, extra);
-            }
+            self.rotate_triangle_in(other, extra);
         }
         if other.pending_rows > 0 {
             const LD: usize = HOUSEHOLDER_BLOCK_ROWS;
@@ -815,7 +788,31 @@ impl LeastSquares {
                 }
             }
         }
-        for ((acc, &o), &e) in self.rss.iter_mut().zip(&other.rss).zip(extra.iter()) {
+        self.add_tallies(other, extra);
+    }
+
+    /// Rotate the rows of `other`'s triangle into this factor (allocated), in
+    /// order, skipping rows that are zero from the diagonal on; what they add
+    /// to the residual sums goes to `extra` (one per response).
+    fn rotate_triangle_in(&mut self, other: &LeastSquares, extra: &mut [f64]) {
+        let p = self.n_columns;
+        let width = p + self.n_responses;
+        let mut row = [0.0; 2 * MAX_COLUMNS];
+        let row = &mut row[..width];
+        for i in 0..p {
+            let src = &other.rz()[i * width..(i + 1) * width];
+            if src[i..].iter().all(|&v| v == 0.0) {
+                continue;
+            }
+            row.copy_from_slice(src);
+            rotate_block_in(&mut self.rz, &mut self.diag_sq, p, row, i, extra);
+        }
+    }
+
+    /// Add `other`'s residual sums (plus `extra`, what merging its rows added),
+    /// column sums of squares and row counts to this accumulator's.
+    fn add_tallies(&mut self, other: &LeastSquares, extra: &[f64]) {
+        for ((acc, &o), &e) in self.rss.iter_mut().zip(&other.rss).zip(extra) {
             *acc += o + e;
         }
         for (a, b) in self

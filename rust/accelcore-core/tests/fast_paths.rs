@@ -176,6 +176,38 @@ fn every_other(a: &Array2<f64>) -> ArrayView2<'_, f64> {
     a.slice_axis(Axis(0), Slice::new(0, None, 2))
 }
 
+/// Bin the rows as contiguous rows (the same-bin runs) and as strided rows (row
+/// by row); both must fail, or give the same bits (NaN-aware: empty bins are NaN).
+fn same_binning(
+    config: BinnerConfig,
+    t: &[f64],
+    temp: &[f64],
+    ch: &Array2<f64>,
+) -> Result<(), TestCaseError> {
+    let mut fast = TemperatureBinner::new(config.clone()).unwrap();
+    fast.push(t, temp, ch.view()).unwrap();
+    let tall = strided(ch);
+    let mut slow = TemperatureBinner::new(config).unwrap();
+    slow.push(t, temp, every_other(&tall)).unwrap();
+    match (fast.finish(), slow.finish()) {
+        (Ok(a), Ok(b)) => {
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            prop_assert_eq!(&a.count, &b.count);
+            prop_assert_eq!(bits(&a.mean), bits(&b.mean));
+            prop_assert_eq!(bits(&a.variance), bits(&b.variance));
+            prop_assert_eq!(bits(&a.time_s), bits(&b.time_s));
+            prop_assert_eq!(bits(&a.temperature_c), bits(&b.temperature_c));
+            prop_assert_eq!(
+                (a.n_below, a.n_above, a.n_nonfinite),
+                (b.n_below, b.n_above, b.n_nonfinite)
+            );
+        }
+        (Err(_), Err(_)) => {}
+        (a, b) => prop_assert!(false, "one path failed: {:?} vs {:?}", a.is_ok(), b.is_ok()),
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(300))]
 
@@ -215,25 +247,7 @@ proptest! {
             }
         });
         let config = BinnerConfig { lo_c: -2.0, hi_c: 4.0, width_c: width, n_channels: nc };
-        let mut fast = TemperatureBinner::new(config.clone()).unwrap();
-        fast.push(&t, &temp, ch.view()).unwrap();
-        let tall = strided(&ch);
-        let mut slow = TemperatureBinner::new(config).unwrap();
-        slow.push(&t, &temp, every_other(&tall)).unwrap();
-        match (fast.finish(), slow.finish()) {
-            (Ok(a), Ok(b)) => {
-                // NaN-aware bitwise comparison (empty bins are NaN).
-                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                prop_assert_eq!(&a.count, &b.count);
-                prop_assert_eq!(bits(&a.mean), bits(&b.mean));
-                prop_assert_eq!(bits(&a.variance), bits(&b.variance));
-                prop_assert_eq!(bits(&a.time_s), bits(&b.time_s));
-                prop_assert_eq!(bits(&a.temperature_c), bits(&b.temperature_c));
-                prop_assert_eq!((a.n_below, a.n_above, a.n_nonfinite), (b.n_below, b.n_above, b.n_nonfinite));
-            }
-            (Err(_), Err(_)) => {}
-            (a, b) => prop_assert!(false, "one path failed: {:?} vs {:?}", a.is_ok(), b.is_ok()),
-        }
+        same_binning(config, &t, &temp, &ch)?;
     }
 
     #[test]
@@ -283,24 +297,7 @@ proptest! {
             }
         }
         let config = BinnerConfig { lo_c, hi_c, width_c: width, n_channels: nc };
-        let mut fast = TemperatureBinner::new(config.clone()).unwrap();
-        fast.push(&t, &temp, ch.view()).unwrap();
-        let tall = strided(&ch);
-        let mut slow = TemperatureBinner::new(config).unwrap();
-        slow.push(&t, &temp, every_other(&tall)).unwrap();
-        match (fast.finish(), slow.finish()) {
-            (Ok(a), Ok(b)) => {
-                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                prop_assert_eq!(&a.count, &b.count);
-                prop_assert_eq!(bits(&a.mean), bits(&b.mean));
-                prop_assert_eq!(bits(&a.variance), bits(&b.variance));
-                prop_assert_eq!(bits(&a.time_s), bits(&b.time_s));
-                prop_assert_eq!(bits(&a.temperature_c), bits(&b.temperature_c));
-                prop_assert_eq!((a.n_below, a.n_above, a.n_nonfinite), (b.n_below, b.n_above, b.n_nonfinite));
-            }
-            (Err(_), Err(_)) => {}
-            (a, b) => prop_assert!(false, "one path failed: {:?} vs {:?}", a.is_ok(), b.is_ok()),
-        }
+        same_binning(config, &t, &temp, &ch)?;
     }
 
     #[test]
