@@ -178,7 +178,14 @@ def _best_level(
     n_tests = len(zero_g)
     base = {a: eng.cv(a, specs[a].terms(a)) for a in AXES}
     resids = {a: eng.residuals(a, specs[a].terms(a))[0] for a in AXES}
-    levels_mg = {(a, i): _level_mg(eng, resids[a], runs[i]) for a, i in zero_g}
+    raw_mg = {(a, i): _level_mg(eng, resids[a], runs[i]) for a, i in zero_g}
+    # Each level against the middle of its axis' other zero-g runs: a level every
+    # zero-g run of an axis shares is that axis' offset (moved by what its +-g runs
+    # hold: a tilted run's cosine loss), the part's or the fit's, not one run's.
+    levels_mg = {
+        (a, i): level - _middle([v for (b, j), v in raw_mg.items() if b == a and j != i])
+        for (a, i), level in raw_mg.items()
+    }
     best: tuple[float, float, str, Spec, str] | None = None
     for a, i in zero_g:
         spec, idx, label = specs[a], runs[i], labels[i]
@@ -212,6 +219,11 @@ def _level_mg(eng: Engine, resid: FloatArray, idx: NDArray[np.int64]) -> float:
     w = eng.w[idx]
     total = float(w.sum())
     return float((w * resid[idx]).sum()) / total if total > 0 else 0.0
+
+
+def _middle(values: list[float]) -> float:
+    """Median of ``values``; 0 for none."""
+    return float(np.median(values)) if values else 0.0
 
 
 def _stands_out(levels: Mapping[tuple[str, int], float], key: tuple[str, int]) -> bool:

@@ -38,6 +38,7 @@ from accelcore.model import AXES, Decay, RunStep
 from accelcore.result.calibration import Calibration
 
 from . import search
+from .between import cross_left_out
 from .ends import improved_calibration, starting_point, usable_extras
 from .engine import CV, Engine
 from .events import find_run_events
@@ -48,13 +49,14 @@ from .result import Diagnosis, Step
 from .scope import QUALITY_EXPLAINS, check_options, explained, not_explained_by
 from .search import confounding, variants
 from .space import FAMILIES, Spec, is_event, with_tau
-from .stats import accept, wrms
+from .stats import wrms
 from .structure import (
     MIN_TEMPERATURE_SPAN_C,
     TEMPERATURE_FAMILIES,
     structures,
     temperature_span_c,
 )
+from .verdicts import Candidate, Tried, judge, judge_between_runs
 
 __all__ = ["QUALITY_EXPLAINS", "diagnose"]
 
@@ -62,24 +64,6 @@ __all__ = ["QUALITY_EXPLAINS", "diagnose"]
 #: the held-out squared error by this factor more: the named ones are its special
 #: cases with fewer parameters.
 GENERIC_MARGIN = 1.1
-
-#: (family, variant label, CV, spec) of one variant tried.
-_Tried = tuple[str, str, CV, Spec]
-
-
-@dataclass
-class Candidate:
-    """The best variant of one family on one axis at one step, and its verdict."""
-
-    family: str
-    axis: str
-    variant: str
-    spec: Spec
-    cv: CV
-    cut: float
-    t: float
-    p: float
-    accepted: bool
 
 
 @dataclass(frozen=True)
@@ -168,12 +152,12 @@ class _Selection:
         if searches:
             search.search_many(self.eng, searches, self._tau_range(family))
 
-    def _tried(self, family: str, axis: str) -> list[_Tried]:
+    def _tried(self, family: str, axis: str) -> list[Tried]:
         """Every variant of ``family`` on ``axis``, cross-validated."""
         spec, rules = self.specs[axis], self.rules
         if family in ("warm_up", "thermal_lag"):
             range_s = self._tau_range(family)
-            tried: list[_Tried] = []
+            tried: list[Tried] = []
             for fam, what, make in self._tau_searches(family, axis):
                 tau, cv = search.search_1d(self.eng, axis, make, range_s)
                 tried.append((fam, f"{what}tau {tau:.3g} s", cv, make(tau)))
@@ -193,9 +177,9 @@ class _Selection:
             )
         ]
 
-    def _tried_generic(self, axis: str, spec: Spec) -> list[_Tried]:
+    def _tried_generic(self, axis: str, spec: Spec) -> list[Tried]:
         """Cross-validate the generic coarse variants, and the fine ones where those cut."""
-        tried: list[_Tried] = []
+        tried: list[Tried] = []
         cur = self.cv_cur[axis].rms_out
         skip = self.rules.skip_observables
         for family, label, s, finer in generic_variants(axis, spec, self.eng, skip):
@@ -215,40 +199,31 @@ class _Selection:
         for family in self.rules.families:
             self._search_together(family)
             for a in AXES:
-                groups: dict[str, list[_Tried]] = {}
+                groups: dict[str, list[Tried]] = {}
                 for o in self._tried(family, a):
                     groups.setdefault(o[0], []).append(o)
                 for fam, opts in groups.items():
                     cand = self._judge(step, a, fam, opts)
                     by_family.setdefault(fam, []).append(cand)
+        for cands in by_family.values():
+            judge_between_runs(self.eng, cands, self.cv_cur, self.rules.alpha)
         return by_family
 
-    def _judge(self, step: int, axis: str, family: str, opts: Sequence[_Tried]) -> Candidate:
-        """Pick the most parsimonious variant within 1 % of the best; test it; record it."""
-        cur = self.cv_cur[axis]
-        finite = [o for o in opts if math.isfinite(o[2].rms_out)] or list(opts[:1])
-        best_rms = min(o[2].rms_out for o in finite)
-        _, label, cv, spec = next((o for o in finite if o[2].rms_out <= best_rms * 1.01), finite[0])
+    def _judge(self, step: int, axis: str, family: str, opts: Sequence[Tried]) -> Candidate:
+        """Judge one family's variants on one axis (:func:`.verdicts.judge`); record it."""
         rules = self.rules
-        v = accept(
-            cur.sse_blocks, cv.sse_blocks, min_improvement=rules.min_improvement, alpha=rules.alpha
+        cand = judge(
+            self.eng,
+            step,
+            axis,
+            family,
+            opts,
+            self.cv_cur[axis],
+            rules.min_improvement,
+            rules.alpha,
         )
-        cut, t, p, ok = v.cut, v.t, v.p, v.accepted
-        self.cand_rows.append(
-            {
-                "step": step,
-                "family": family,
-                "axis": axis,
-                "variant": label,
-                "rms_out_before_mg": cur.rms_out,
-                "rms_out_after_mg": cv.rms_out,
-                "cut_pct": 100.0 * cut,
-                "t": t,
-                "p_value": p,
-                "accepted": ok,
-            }
-        )
-        return Candidate(family, axis, label, spec, cv, cut, t, p, ok)
+        self.cand_rows.append(cand.row)
+        return cand
 
     def add_run_events(self) -> None:
         """Find steps and run levels in the residual (:mod:`.events`); fit them as events.
@@ -497,6 +472,12 @@ def diagnose(
         min_improvement,
         alpha,
     )
+    # The starting calibration's cross-axis gains (the default full 3x3 gain) are
+    # constant in every run: the misalignment family adds them back when the runs
+    # support them (judged between runs, :mod:`.between`).
+    held_cross = any(spec.cross for spec in specs.values())
+    if held_cross and "misalignment" in tried:
+        specs = {a: replace(spec, cross=()) for a, spec in specs.items()}
     specs_at_start = dict(specs)
     selection = _Selection(eng, specs, rules)
     selection.run(max_steps)
@@ -506,7 +487,9 @@ def diagnose(
             selection, eng = _again_with_events(eng, specs_at_start, selection, rules, max_steps)
     added = [s.effect for s in selection.steps[1:]]
     if any(spec.cross for spec in specs_at_start.values()):
-        added.append("misalignment")  # the base model holds the cross-axis gain
+        added.append("misalignment")  # the model holds the cross-axis gain throughout
+    elif held_cross and not any(spec.cross for spec in selection.specs.values()):
+        warn.append(cross_left_out(selection.cand_rows, rules.min_improvement))
     warn = [c.text(added) for c in confounded] + warn + selection.notes
     improved = improved_calibration(base, eng, selection.specs, selection.steps)
     resid = {a: eng.residuals(a, selection.specs[a].terms(a))[0] for a in AXES}

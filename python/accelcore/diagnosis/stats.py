@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from accelcore import core
 
-__all__ = ["accept", "chi2_sf", "corrected_p", "paired_test", "t_sf", "wrms"]
+__all__ = ["accept", "chi2_sf", "corrected_p", "f_sf", "paired_test", "t_sf", "wrms"]
 
 FloatArray = NDArray[np.float64]
 
@@ -30,6 +30,11 @@ def chi2_sf(chi2: float, dof: int) -> float:
 def t_sf(t: float, dof: int) -> float:
     """One-sided upper tail of Student's t; NaN when ``dof <= 0``."""
     return core.t_sf(t, dof=dof)
+
+
+def f_sf(f: float, dfn: int, dfd: int) -> float:
+    """Survival function of Fisher's F distribution with ``(dfn, dfd)`` degrees of freedom."""
+    return core.f_sf(f, dfn=dfn, dfd=dfd)
 
 
 def paired_test(diff: FloatArray) -> tuple[float, float]:

@@ -1,0 +1,262 @@
+"""Terms that vary only between runs are judged between runs.
+
+A column constant inside every run (the square of an axis' gravity in static
+orientations, a gain on a gravity component, an extra column logged as one value per
+run, a run's level) is identified by the runs' mean levels alone. The held-out folds
+inside runs (legs, time blocks) cannot judge it: a fold's held-out samples share their
+run's level with the training samples of the same run, so a run level that belongs to
+the *session* (each power-on with its own offset, a bias that wanders over the run) is
+carried into the held-out error as if it were the part's, and a term that follows the
+pattern of the runs' levels looks real. With one run per orientation, a second-order
+gain and a pattern of turn-on offsets are the same columns at the run level.
+
+So a candidate that adds such columns must also pass a test at the run level
+(:func:`between_runs_p`): the runs' mean residuals (weighted, every run one value)
+with and without the candidate, against the scatter of the runs' mean residuals that
+the models leave, pooled over the axes. An axis model whose run-constant columns span
+``q`` dimensions over ``K`` runs leaves ``K - q`` degrees of freedom between runs (a
+six-position session with the full 3x3 gain: 6 - 4 = 2 per axis, one with a
+second-order gain). The F statistic of the candidate's run-level cut against that
+pooled scatter is the between-run evidence; with no degree of freedom left, there is
+none, and the candidate is not accepted.
+
+Columns that vary within runs (temperature, time, a logged supply) have run means too
+and take a little of the runs' scatter: the pooled scatter is then slightly small, and
+the test slightly lenient, never stricter than it should be.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from accelcore import core
+from accelcore.model import Term
+
+from .engine import Engine
+from .stats import accept, f_sf
+
+__all__ = [
+    "RunLevelTest",
+    "adds_only_run_constant",
+    "between_runs_p",
+    "cross_left_out",
+    "run_constant_keys",
+    "run_level_cut",
+    "within_runs",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: A column is constant inside a run when it spans at most this fraction of its
+#: largest magnitude there (window means of a constant are that constant to rounding:
+#: a few eps of the weighted sums; 1e-9 leaves room for sums of millions of samples).
+_CONSTANT_RTOL = 1e-9
+
+
+def _window_runs(eng: Engine) -> tuple[NDArray[np.int64], int]:
+    """Return the run (0..K-1) of every window and K, the runs with weight."""
+    run = eng.sample_run[eng.window_start]
+    present = np.unique(run[eng.window_weight > 0])
+    index = np.full(int(run.max()) + 1 if run.size else 0, -1, dtype=np.int64)
+    index[present] = np.arange(present.size)
+    return index[run], int(present.size)
+
+
+def _is_run_constant(eng: Engine, key: object) -> bool:
+    """Tell whether a column (an engine key) is constant inside every run (kept per engine)."""
+    cache: dict[object, bool] = eng.__dict__.setdefault("_run_constant", {})
+    found = cache.get(key)
+    if found is None:
+        run, k = _window_runs(eng)
+        keep = (run >= 0) & (eng.window_weight > 0)
+        col = eng._window_column(key)[keep]  # type: ignore[arg-type]
+        r = run[keep]
+        hi = np.full(k, -np.inf)
+        lo = np.full(k, np.inf)
+        np.maximum.at(hi, r, col)
+        np.minimum.at(lo, r, col)
+        size = np.maximum(np.abs(hi), np.abs(lo))
+        found = bool(np.all(np.isfinite(col)) and np.all(hi - lo <= _CONSTANT_RTOL * size))
+        cache[key] = found
+    return found
+
+
+def run_constant_keys(eng: Engine, axis: str, terms: Sequence[Term]) -> frozenset[int]:
+    """Return the positions (in the axis' free columns) of the columns constant in every run."""
+    return frozenset(
+        j for j, key in enumerate(eng._keys(axis, terms)) if _is_run_constant(eng, key)
+    )
+
+
+def run_level_cut(
+    eng: Engine, axis: str, current: Sequence[Term], candidate: Sequence[Term], rms_mg: float
+) -> float:
+    """Return the relative cut of an axis' RMS error that a candidate makes between runs.
+
+    The runs' squared mean residuals it removes, per run, taken off the mean square of
+    ``rms_mg`` (the axis' in-sample RMS error now, the same fit): the cut of the RMS
+    error were every sample's run level moved as its run's mean. The least improvement
+    of a candidate judged between runs (its held-out cut means nothing there) is on
+    this figure.
+    """
+    (rss0, _), (rss1, _) = _run_level(eng, axis, current), _run_level(eng, axis, candidate)
+    runs = _window_runs(eng)[1]
+    ms = rms_mg * rms_mg
+    if not (runs and ms > 0):
+        return 0.0
+    return 1.0 - math.sqrt(max(ms - max(rss0 - rss1, 0.0) / runs, 0.0) / ms)
+
+
+def adds_only_run_constant(
+    eng: Engine, axis: str, current: Sequence[Term], candidate: Sequence[Term]
+) -> bool:
+    """Tell whether every column ``candidate`` adds to ``current`` is constant in every run."""
+    before = set(eng._keys(axis, current))
+    added = [k for k in eng._keys(axis, candidate) if k not in before]
+    return bool(added) and all(_is_run_constant(eng, k) for k in added)
+
+
+def _run_level(eng: Engine, axis: str, terms: Sequence[Term]) -> tuple[float, int]:
+    """Return the runs' sum of squared mean residuals of an axis model and its dof.
+
+    The model is fitted on every sample (its held-out fit's coefficients on all data);
+    the dof is the runs less the rank of the run means of its run-constant columns.
+    """
+    run, k = _window_runs(eng)
+    keys = eng._keys(axis, terms)
+    y = eng._yc[axis]
+    w = np.where(run >= 0, eng.window_weight, 0.0)
+    r = run.clip(min=0)
+    resid = y.copy()
+    held = eng._heldout_of(axis, terms)
+    constant = run_constant_keys(eng, axis, terms)
+    z = np.zeros((k, len(constant)))
+    wsum = np.bincount(r, weights=w, minlength=k)
+    if held is not None:
+        beta = np.asarray(held.coefficients, dtype=np.float64)
+        for j, key in enumerate(keys):
+            col = eng._window_column(key)
+            if beta[j] != 0.0 and np.isfinite(beta[j]):
+                resid = resid - beta[j] * col
+        for i, j in enumerate(sorted(constant)):
+            z[:, i] = np.bincount(r, weights=w * eng._window_column(keys[j]), minlength=k) / wsum
+    means = np.bincount(r, weights=w * resid, minlength=k) / wsum
+    rank = int(np.linalg.matrix_rank(z)) if z.size else 0
+    return float(means @ means), k - rank
+
+
+@dataclass(frozen=True)
+class RunLevelTest:
+    """The nested F test of some run-constant columns at the run level.
+
+    ``p`` is NaN when no degree of freedom is left between runs (no evidence either
+    way); ``scatter_mg`` is the runs' pooled scatter of mean residuals, mg.
+    """
+
+    f: float
+    dfn: int
+    dfd: int
+    p: float
+    scatter_mg: float
+
+
+def between_runs_p(
+    eng: Engine, current: Mapping[str, Sequence[Term]], candidate: Mapping[str, Sequence[Term]]
+) -> RunLevelTest | None:
+    """Return the run-level test of a step's run-constant columns (see the module).
+
+    ``current``: the model of every axis before the step; ``candidate``: the models
+    of the axes the step changes. The nested F test at the run level: the cut of the
+    runs' squared mean residuals on the changed axes, per run-level dimension the step
+    adds, against the runs' scatter that every axis' model after the step leaves.
+    None when the step adds no run-level dimension (nothing to judge between runs).
+    """
+    rss0 = rss1 = pooled = 0.0
+    added = dof = 0
+    for axis, terms in current.items():
+        after = _run_level(eng, axis, candidate.get(axis, terms))
+        if axis in candidate:
+            before = _run_level(eng, axis, terms)
+            rss0 += before[0]
+            rss1 += after[0]
+            added += before[1] - after[1]
+        if after[1] > 0:
+            pooled += after[0]
+            dof += after[1]
+    if added <= 0:
+        return None
+    if dof <= 0:
+        return RunLevelTest(math.nan, added, 0, math.nan, math.nan)
+    scatter = pooled / dof
+    f = max(rss0 - rss1, 0.0) / added / scatter if scatter > 0 else math.inf
+    return RunLevelTest(f, added, dof, f_sf(f, added, dof), math.sqrt(scatter))
+
+
+def cross_left_out(rows: Sequence[Mapping[str, object]], min_improvement: float) -> str:
+    """Return the warning line of a starting model's cross-axis gains left out.
+
+    ``rows``: the selection's candidate rows; the ``misalignment`` ones of its first
+    step give the figures (the run-level cut of each axis, the F test's p when one
+    was made).
+    """
+    first = [r for r in rows if r["family"] == "misalignment" and r["step"] == 1]
+    figures = ", ".join(
+        f"{r['axis']} {float(r['cut_between_runs_pct']):.2g} %"  # type: ignore[arg-type]
+        for r in first
+    )
+    tested = [float(r["p_between_runs"]) for r in first]  # type: ignore[arg-type]
+    tested = [p for p in tested if not math.isnan(p)]
+    why = (
+        f"the runs' F test gives p = {min(tested):.2g}"
+        if tested
+        else f"least {100 * min_improvement:g} %"
+    )
+    return (
+        "the starting calibration's cross-axis gains (misalignment) are left out: they "
+        "are constant in every run, and the runs do not support them (the cut of the "
+        f"runs' levels: {figures or 'none tried'}; {why}); with one run per orientation "
+        "their values would be this session's run levels (each power-on's own offset), "
+        "not the part's"
+    )
+
+
+def within_runs(
+    eng: Engine,
+    axis: str,
+    current: Sequence[Term],
+    candidate: Sequence[Term],
+    *,
+    min_improvement: float,
+    alpha: float,
+) -> core.Acceptance:
+    """Judge a candidate on its held-out residuals less each run's mean (the paired test).
+
+    The held-out residual of every sample (its fold held out) less its run's weighted
+    mean, for the current model and the candidate, summed in squares per block and
+    judged by the diagnosis' rule (:func:`.stats.accept`). What a candidate predicts of
+    the runs' levels is taken out of both: its held-out cut must come from how the
+    residual moves *inside* runs, which the blocks of one run do see independently. A
+    term that only moves a run's level (a function of the logged rate that is nearly
+    constant on each leg, times a gravity component, fitting the runs' turn-on offsets)
+    does not pass; the run-level test judges those (:func:`between_runs_p`).
+    """
+    sums = []
+    w = eng.w
+    n_runs = int(eng.sample_run.max()) + 1 if eng.n else 0
+    wrun = np.bincount(eng.sample_run, weights=w, minlength=n_runs)
+    wrun[wrun == 0] = 1.0
+    for terms in (current, candidate):
+        r = eng.residuals(axis, terms)[1]
+        level = np.bincount(eng.sample_run, weights=w * r, minlength=n_runs) / wrun
+        d = r - level[eng.sample_run]
+        sums.append(
+            np.bincount(eng.sample_block, weights=w * d * d, minlength=eng.block_start.size).astype(
+                np.float64
+            )
+        )
+    return accept(sums[0], sums[1], min_improvement=min_improvement, alpha=alpha)

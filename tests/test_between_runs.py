@@ -1,0 +1,133 @@
+"""Terms that vary only between runs are judged between runs (``accelcore.diagnosis.between``).
+
+Each run of a session powers on with its own offset (the part's turn-on repeatability,
+``simulate.events.TurnOnBias``); another session of the same part has other offsets. With
+one run per orientation, the default full 3x3 gain and a second-order gain fit those
+offsets, and folds inside runs cannot tell: a held-out block shares its run's offset with
+the training blocks of the run. Scored as a user would: fit on one session, the RMS error
+against nominal gravity on an independent session of the same part (another profile,
+other turn-on offsets), against the seed paper's model.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from dataclasses import replace
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+import pytest
+
+from accelcore.diagnosis import diagnose
+from accelcore.diagnosis.between import between_runs_p
+from accelcore.diagnosis.ends import starting_point
+from accelcore.diagnosis.engine import Engine
+from accelcore.model import AXES
+from accelcore.simulate import effects as se
+from accelcore.simulate import events as sev
+
+HOURS = 0.5
+
+
+@pytest.fixture(scope="module")
+def bench() -> ModuleType:
+    """``benches/validation.py``, imported under a private name."""
+    path = Path(__file__).resolve().parents[1] / "benches" / "validation.py"
+    spec = importlib.util.spec_from_file_location("_validation_bench_runs", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[spec.name]
+        raise
+    return module
+
+
+def turn_on_case(bench: ModuleType, seed: int, *part: object) -> Any:
+    """A part (``part``) whose every run powers on with its own 2 mg sd offset."""
+    return bench.ValidationCase(
+        "turn-on scatter",
+        part=(*part, sev.TurnOnBias(2.0, seed=seed)),
+        validation_part=(*part, sev.TurnOnBias(2.0, seed=seed + 1000)),
+        expect="rise <= 5%",
+    )
+
+
+@pytest.mark.parametrize("seed", [2, 3, 5])
+def test_turn_on_scatter_is_not_fitted_as_the_parts(bench: ModuleType, seed: int) -> None:
+    """Nothing of the part to learn: the diagnosed model is not worse than the paper's.
+
+    Before the run-level judgement the full 3x3 gain alone took these sessions from
+    1.9-2.7 mg to 2.1-3.2 mg on the validation session (0.66-0.89x). 5 % is the
+    validation rule for "nothing to learn"; the error here is the validation session's
+    own turn-on offsets (about 2 mg), which no calibration can predict.
+    """
+    out = bench.run_case(turn_on_case(bench, seed), seed, HOURS)
+    assert out.diagnosed_mg <= 1.05 * out.base_mg, (out.added, out.base_mg, out.diagnosed_mg)
+    assert out.added == (), out.added
+
+
+def test_the_note_says_why_the_cross_axis_gains_were_left_out(bench: ModuleType) -> None:
+    session = bench.simulate_session(
+        (sev.TurnOnBias(2.0, seed=3),), 3, HOURS, bench.CALIBRATION_PROFILE
+    )
+    d = diagnose(session)
+    notes = [w for w in d.warnings if w.startswith("the starting calibration's cross-axis")]
+    assert len(notes) == 1, d.warnings
+    rows = d.candidates[d.candidates.family == "misalignment"]
+    assert set(rows.judged) == {"between runs"} and not rows.accepted.any(), rows
+    for a in AXES:
+        assert not any(t.kind == "gain" and t.source != a for t in d.calibration.axes[a].terms)
+    assert "misalignment" not in d.effects
+
+
+def test_a_real_misalignment_is_kept_beside_the_turn_on_scatter(bench: ModuleType) -> None:
+    """0.5-0.9 degrees of misalignment (9-16 mg) stand far out of a 2 mg run scatter."""
+    case = turn_on_case(bench, 4, se.Misalignment())
+    out = bench.run_case(case, 4, HOURS)
+    # The seed paper's model has no cross-axis gain: the kept ones cut its error.
+    assert out.diagnosed_mg * 2.0 <= out.base_mg, (out.added, out.base_mg, out.diagnosed_mg)
+    d = diagnose(bench.simulate_session(case.part, 4, HOURS, bench.CALIBRATION_PROFILE))
+    assert not any(w.startswith("the starting calibration's") for w in d.warnings), d.warnings
+    assert "misalignment" in d.effects, d.effects
+    for a in AXES:
+        assert {t.source for t in d.calibration.axes[a].terms if t.kind == "gain"} == set(AXES)
+
+
+def test_a_clean_second_order_gain_is_judged_between_runs(bench: ModuleType) -> None:
+    """K2 is constant in every run: the run-level test accepts it, not the blocks'."""
+    session = bench.simulate_session((se.Nonlinearity(),), 2, HOURS, bench.CALIBRATION_PROFILE)
+    d = diagnose(session)
+    assert "nonlinearity" in d.effects, d.effects
+    rows = d.candidates[(d.candidates.family == "nonlinearity") & d.candidates.accepted]
+    assert set(rows.judged) == {"between runs"}, rows
+    # Noise of a run's mean residual here is ~0.01 mg against K2 of several mg.
+    assert float(rows.p_between_runs.max()) < 1e-6, rows
+
+
+def test_the_run_level_test_counts_its_degrees_of_freedom(bench: ModuleType) -> None:
+    """Six runs; per axis the offset and own gain leave 4 dof, the full gain 2, K2 one less."""
+    session = bench.simulate_session(
+        (sev.TurnOnBias(2.0, seed=7),), 7, HOURS, bench.CALIBRATION_PROFILE
+    )
+    base, specs, _ = starting_point(session, None, 25.0, None)
+    assert all(s.cross for s in specs.values())
+    eng = Engine(session, base, folds="auto", block_s=300.0, steady_c_per_min=0.1)
+    full = {a: specs[a].terms(a) for a in AXES}
+    test = between_runs_p(
+        eng,
+        {a: replace(specs[a], cross=()).terms(a) for a in AXES},
+        full,
+    )
+    assert test is not None
+    assert (test.dfn, test.dfd) == (6, 6)
+    # Nothing added between runs: no test.
+    assert between_runs_p(eng, full, full) is None
+    # The 2 mg scatter: the pooled scatter of run means is that size (6 dof: within x2).
+    assert 0.5 < test.scatter_mg < 6.0, test
+    assert np.isfinite(test.p) and test.p >= 0.01
