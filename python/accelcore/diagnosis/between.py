@@ -45,6 +45,7 @@ __all__ = [
     "adds_only_run_constant",
     "between_runs_p",
     "cross_left_out",
+    "n_runs",
     "run_constant_keys",
     "run_level_cut",
     "within_runs",
@@ -84,6 +85,11 @@ def _is_run_constant(eng: Engine, key: object) -> bool:
         found = bool(np.all(np.isfinite(col)) and np.all(hi - lo <= _CONSTANT_RTOL * size))
         cache[key] = found
     return found
+
+
+def n_runs(eng: Engine) -> int:
+    """Return the number of runs with weight."""
+    return _window_runs(eng)[1]
 
 
 def run_constant_keys(eng: Engine, axis: str, terms: Sequence[Term]) -> frozenset[int]:

@@ -337,6 +337,11 @@ def _best_family(
     return named
 
 
+def _cross_identified(eng: Engine, axis: str) -> bool:
+    """Tell whether some other axis sees two gravity values (a cross-axis gain of ``axis``)."""
+    return any(eng.gravity_values[AXES.index(b)] >= 2 for b in AXES if b != axis)
+
+
 def _pooled(values: Mapping[str, float]) -> float:
     return math.sqrt(sum(v * v for v in values.values()) / len(values))
 
@@ -475,9 +480,15 @@ def diagnose(
     # The starting calibration's cross-axis gains (the default full 3x3 gain) are
     # constant in every run: the misalignment family adds them back when the runs
     # support them (judged between runs, :mod:`.between`).
-    held_cross = any(spec.cross for spec in specs.values())
-    if held_cross and "misalignment" in tried:
-        specs = {a: replace(spec, cross=()) for a, spec in specs.items()}
+    # (Only where the family can add them back: another axis sees two gravity values.)
+    held_cross = "misalignment" in tried and any(
+        spec.cross and _cross_identified(eng, a) for a, spec in specs.items()
+    )
+    if held_cross:
+        specs = {
+            a: replace(spec, cross=()) if _cross_identified(eng, a) else spec
+            for a, spec in specs.items()
+        }
     specs_at_start = dict(specs)
     selection = _Selection(eng, specs, rules)
     selection.run(max_steps)

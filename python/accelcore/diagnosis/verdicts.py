@@ -4,7 +4,8 @@
 of the best held-out error and applies the diagnosis' rule: the held-out cut and the
 paired test over blocks (:func:`.stats.accept`), then, by what the candidate's new
 columns are (:mod:`.between`), either the same test on the held-out residuals less
-each run's mean (columns that move inside runs) or the run level's least improvement
+each run's mean (columns that move inside runs; with two runs or more: one run's level is the
+offset every model holds) or the run level's least improvement
 (columns constant in every run). :func:`judge_between_runs` then tests the run-level
 part of one family's accepted candidates jointly over their axes.
 """
@@ -18,7 +19,13 @@ from typing import Any
 
 from accelcore.model import AXES
 
-from .between import adds_only_run_constant, between_runs_p, run_level_cut, within_runs
+from .between import (
+    adds_only_run_constant,
+    between_runs_p,
+    n_runs,
+    run_level_cut,
+    within_runs,
+)
 from .engine import CV, Engine
 from .space import Spec
 from .stats import accept
@@ -72,7 +79,7 @@ def judge(
     if runs_only:
         cut_runs = run_level_cut(eng, axis, cur.terms, cv.terms, cur.rms_in)
         ok = cut > 0 and cut_runs >= min_improvement
-    elif ok:
+    elif ok and n_runs(eng) >= 2:
         inside = within_runs(
             eng, axis, cur.terms, cv.terms, min_improvement=min_improvement, alpha=alpha
         )
