@@ -45,9 +45,11 @@ __all__ = [
     "adds_only_run_constant",
     "between_runs_p",
     "cross_left_out",
+    "heldout_window_residuals",
     "n_runs",
     "run_constant_keys",
     "run_level_cut",
+    "within_run_sse_blocks",
     "within_runs",
 ]
 
@@ -231,6 +233,63 @@ def cross_left_out(rows: Sequence[Mapping[str, object]], min_improvement: float)
     )
 
 
+def heldout_window_residuals(eng: Engine, axis: str, terms: Sequence[Term]) -> FloatArray:
+    """Return each window's mean residual under the fit that held its fold out, mg.
+
+    The window-level half of the engine's held-out error: the weighted squares of
+    these, summed per block, plus each block's deviations of the samples about their
+    window means, are :meth:`Engine.cv`'s ``sse_blocks``.
+    """
+    y = eng._yc[axis]
+    held = eng._heldout_of(axis, terms)
+    if held is None:
+        return y.copy()
+    keys = eng._keys(axis, terms)
+    beta_in = np.asarray(held.coefficients, dtype=np.float64)
+    beta = np.zeros((eng.n_folds, beta_in.size))
+    beta[: held.fold_coefficients.shape[0]] = held.fold_coefficients
+    # A fold without a weighted row leaves every row for training: the fit on all data.
+    beta[np.isnan(beta).any(axis=1)] = beta_in
+    per_window = beta[eng.block_fold[eng.window_block]]
+    fitted = np.zeros_like(y)
+    for j, key in enumerate(keys):
+        fitted += eng._window_column(key) * per_window[:, j]
+    return y - fitted
+
+
+def within_run_sse_blocks(eng: Engine, axis: str, terms: Sequence[Term]) -> FloatArray:
+    """Return the held-out squared error per block less each run's mean held-out residual.
+
+    What a model predicts of the runs' levels is taken out: the error left is how the
+    residual moves *inside* runs, which the blocks of one run see independently.
+    Computed on window means (exactly: a window's samples share its model columns), the
+    deviations of the samples about their window means added as in :meth:`Engine.cv`.
+    """
+    cache: dict[tuple[str, tuple[Term, ...]], FloatArray] = eng.__dict__.setdefault(
+        "_within_run_sse", {}
+    )
+    key = (axis, tuple(terms))
+    found = cache.get(key)
+    if found is None:
+        run, k = _window_runs(eng)
+        w = np.where(run >= 0, eng.window_weight, 0.0)
+        r = run.clip(min=0)
+        resid = heldout_window_residuals(eng, axis, terms)
+        wsum = np.bincount(r, weights=w, minlength=k)
+        level = np.bincount(r, weights=w * resid, minlength=k) / np.where(wsum > 0, wsum, 1.0)
+        d = resid - level[r]
+        found = (
+            np.bincount(eng.window_block, weights=w * d * d, minlength=eng.block_start.size).astype(
+                np.float64
+            )
+            + eng._within[axis]
+        )
+        if len(cache) >= eng.memo_size:
+            cache.clear()
+        cache[key] = found
+    return found
+
+
 def within_runs(
     eng: Engine,
     axis: str,
@@ -240,29 +299,20 @@ def within_runs(
     min_improvement: float,
     alpha: float,
 ) -> core.Acceptance:
-    """Judge a candidate on its held-out residuals less each run's mean (the paired test).
+    """Judge a candidate on its held-out error inside runs (the diagnosis' paired test).
 
-    The held-out residual of every sample (its fold held out) less its run's weighted
-    mean, for the current model and the candidate, summed in squares per block and
-    judged by the diagnosis' rule (:func:`.stats.accept`). What a candidate predicts of
-    the runs' levels is taken out of both: its held-out cut must come from how the
-    residual moves *inside* runs, which the blocks of one run do see independently. A
-    term that only moves a run's level (a function of the logged rate that is nearly
-    constant on each leg, times a gravity component, fitting the runs' turn-on offsets)
-    does not pass; the run-level test judges those (:func:`between_runs_p`).
+    :func:`within_run_sse_blocks` of the current model and of the candidate, judged by
+    :func:`.stats.accept`: the candidate's held-out cut must come from how the residual
+    moves inside runs. The runs' levels, each power-on's own offset, would otherwise
+    dominate the held-out error with whole runs as folds (hiding a real effect under
+    their scatter), and a term that only moves a run's level (a function of the
+    logged rate nearly constant on each leg, times a gravity component) would pass on
+    the blocks of one held-out run counted as independent; the run-level test judges
+    those (:func:`between_runs_p`).
     """
-    sums = []
-    w = eng.w
-    n_runs = int(eng.sample_run.max()) + 1 if eng.n else 0
-    wrun = np.bincount(eng.sample_run, weights=w, minlength=n_runs)
-    wrun[wrun == 0] = 1.0
-    for terms in (current, candidate):
-        r = eng.residuals(axis, terms)[1]
-        level = np.bincount(eng.sample_run, weights=w * r, minlength=n_runs) / wrun
-        d = r - level[eng.sample_run]
-        sums.append(
-            np.bincount(eng.sample_block, weights=w * d * d, minlength=eng.block_start.size).astype(
-                np.float64
-            )
-        )
-    return accept(sums[0], sums[1], min_improvement=min_improvement, alpha=alpha)
+    return accept(
+        within_run_sse_blocks(eng, axis, current),
+        within_run_sse_blocks(eng, axis, candidate),
+        min_improvement=min_improvement,
+        alpha=alpha,
+    )

@@ -69,21 +69,23 @@ def judge(
     finite = [o for o in opts if math.isfinite(o[2].rms_out)] or list(opts[:1])
     best_rms = min(o[2].rms_out for o in finite)
     _, label, cv, spec = next((o for o in finite if o[2].rms_out <= best_rms * 1.01), finite[0])
-    v = accept(cur.sse_blocks, cv.sse_blocks, min_improvement=min_improvement, alpha=alpha)
+    runs_only = adds_only_run_constant(eng, axis, cur.terms, cv.terms)
+    inside = not runs_only and n_runs(eng) >= 2
+    if inside:
+        # Judged inside runs: the held-out error less each run's mean (:mod:`.between`).
+        v = within_runs(
+            eng, axis, cur.terms, cv.terms, min_improvement=min_improvement, alpha=alpha
+        )
+    else:
+        v = accept(cur.sse_blocks, cv.sse_blocks, min_improvement=min_improvement, alpha=alpha)
     cut, t, p, ok = v.cut, v.t, v.p, v.accepted
     # Columns constant in every run: no held-out fold can judge them (run folds cannot
     # identify them, folds inside runs share the run's level); the run-level test does
     # (:func:`judge_between_runs`), for a candidate that does not raise the held-out error.
-    runs_only = adds_only_run_constant(eng, axis, cur.terms, cv.terms)
     cut_runs = math.nan
     if runs_only:
         cut_runs = run_level_cut(eng, axis, cur.terms, cv.terms, cur.rms_in)
         ok = cut > 0 and cut_runs >= min_improvement
-    elif ok and n_runs(eng) >= 2:
-        inside = within_runs(
-            eng, axis, cur.terms, cv.terms, min_improvement=min_improvement, alpha=alpha
-        )
-        ok, p = inside.accepted, max(p, inside.p)
     row = {
         "step": step,
         "family": family,
@@ -96,7 +98,9 @@ def judge(
         "p_value": p,
         "cut_between_runs_pct": 100.0 * cut_runs,
         "p_between_runs": math.nan,
-        "judged": "between runs" if runs_only else "held-out blocks",
+        "judged": "between runs"
+        if runs_only
+        else ("held-out blocks inside runs" if inside else "held-out blocks"),
         "accepted": ok,
     }
     return Candidate(family, axis, label, spec, cv, cut, t, p, ok, row)
