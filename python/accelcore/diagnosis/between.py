@@ -62,12 +62,16 @@ _CONSTANT_RTOL = 1e-9
 
 
 def _window_runs(eng: Engine) -> tuple[NDArray[np.int64], int]:
-    """Return the run (0..K-1) of every window and K, the runs with weight."""
-    run = eng.sample_run[eng.window_start]
-    present = np.unique(run[eng.window_weight > 0])
-    index = np.full(int(run.max()) + 1 if run.size else 0, -1, dtype=np.int64)
-    index[present] = np.arange(present.size)
-    return index[run], int(present.size)
+    """Return the run (0..K-1) of every window and K, the runs with weight (kept per engine)."""
+    found: tuple[NDArray[np.int64], int] | None = eng.__dict__.get("_window_runs")
+    if found is None:
+        run = eng.sample_run[eng.window_start]
+        present = np.unique(run[eng.window_weight > 0])
+        index = np.full(int(run.max()) + 1 if run.size else 0, -1, dtype=np.int64)
+        index[present] = np.arange(present.size)
+        found = (index[run], int(present.size))
+        eng.__dict__["_window_runs"] = found
+    return found
 
 
 def _is_run_constant(eng: Engine, key: object) -> bool:
