@@ -2,12 +2,13 @@
 
 :func:`judge` picks the most parsimonious variant of one family on one axis within 1 %
 of the best held-out error and applies the diagnosis' rule: the held-out cut and the
-paired test over blocks (:func:`.stats.accept`), then, by what the candidate's new
-columns are (:mod:`.between`), either the same test on the held-out residuals less
-each run's mean (columns that move inside runs; with two runs or more: one run's level is the
-offset every model holds) or the run level's least improvement
-(columns constant in every run). :func:`judge_between_runs` then tests the run-level
-part of one family's accepted candidates jointly over their axes.
+paired test over blocks (:func:`.stats.accept`). Then, by what the candidate's new
+columns are (:mod:`.between`): columns that move inside runs, when the candidate cuts
+the held-out error at all and the session has two runs or more, are judged by the
+same test on the held-out residuals less each run's mean (with one run, its level is
+the offset every model holds); columns constant in every run by the run level's least
+improvement, and :func:`judge_between_runs` then tests the run-level part of one
+family's accepted candidates jointly over their axes.
 """
 
 from __future__ import annotations
@@ -70,14 +71,14 @@ def judge(
     best_rms = min(o[2].rms_out for o in finite)
     _, label, cv, spec = next((o for o in finite if o[2].rms_out <= best_rms * 1.01), finite[0])
     runs_only = adds_only_run_constant(eng, axis, cur.terms, cv.terms)
-    inside = not runs_only and n_runs(eng) >= 2
+    v = accept(cur.sse_blocks, cv.sse_blocks, min_improvement=min_improvement, alpha=alpha)
+    # Judged inside runs (the held-out error less each run's mean, :mod:`.between`)
+    # when it does not raise the held-out error itself.
+    inside = not runs_only and n_runs(eng) >= 2 and v.cut > 0
     if inside:
-        # Judged inside runs: the held-out error less each run's mean (:mod:`.between`).
         v = within_runs(
             eng, axis, cur.terms, cv.terms, min_improvement=min_improvement, alpha=alpha
         )
-    else:
-        v = accept(cur.sse_blocks, cv.sse_blocks, min_improvement=min_improvement, alpha=alpha)
     cut, t, p, ok = v.cut, v.t, v.p, v.accepted
     # Columns constant in every run: no held-out fold can judge them (run folds cannot
     # identify them, folds inside runs share the run's level); the run-level test does
