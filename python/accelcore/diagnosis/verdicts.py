@@ -112,14 +112,19 @@ def judge_between_runs(
 ) -> None:
     """Judge between runs the run-constant columns of one family's accepted candidates.
 
-    Jointly over those axes (:func:`.between.between_runs_p`, each axis' model now in
-    ``current``): when some of their new columns are constant in every run, the test
-    must give ``p < alpha`` too, else none of them is accepted; a candidate judged
-    between runs only is not accepted without it. The verdicts are updated in place.
+    Jointly (:func:`.between.between_runs_p`, each axis' model now in ``current``)
+    over the accepted candidates and every other axis the family was judged on between
+    runs: when some of their new columns are constant in every run, the test must give
+    ``p < alpha`` too, else none of them is accepted; a candidate judged between runs
+    only is not accepted without it. The verdicts are updated in place.
     """
     chosen = [c for c in cands if c.accepted]
+    # Every axis the family was tried on between runs enters the test, not only those
+    # whose run-level cut was large: picking the large ones first would make a draw of
+    # the runs' scatter look like an effect.
+    tested = [c for c in cands if c.accepted or c.row["judged"] == "between runs"]
     models = {a: current[a].terms for a in AXES}
-    test = chosen and between_runs_p(eng, models, {c.axis: c.cv.terms for c in chosen})
+    test = chosen and between_runs_p(eng, models, {c.axis: c.cv.terms for c in tested})
     for c in chosen:
         if test:
             c.accepted = c.row["accepted"] = test.p < alpha
