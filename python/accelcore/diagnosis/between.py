@@ -230,10 +230,10 @@ def cross_left_out(rows: Sequence[Mapping[str, object]], min_improvement: float)
     )
     return (
         "the starting calibration's cross-axis gains (misalignment) are left out: they "
-        "are constant in every run, and the runs do not support them (the cut of the "
-        f"runs' levels: {figures or 'none tried'}; {why}); with one run per orientation "
-        "their values would be this session's run levels (each power-on's own offset), "
-        "not the part's"
+        "are constant in every run, and the runs' levels do not support them (their cut "
+        f"of the runs' levels: {figures or 'none tried'}; {why}); fitted anyway, they "
+        "would take the runs' own offsets (each power-on's), which another session "
+        "does not repeat"
     )
 
 
