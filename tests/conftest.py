@@ -18,10 +18,12 @@ folder for the whole test session, so no test reads or writes the user's
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import sys
 from collections.abc import Iterator
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -78,3 +80,20 @@ def _private_run_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Pat
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+@pytest.fixture(scope="session")
+def bench() -> ModuleType:
+    """``benches/validation.py`` (the validation cases and their scoring), imported under
+    a private name: the tests do not put the checkout's ``benches`` package on the path."""
+    path = Path(__file__).resolve().parents[1] / "benches" / "validation.py"
+    spec = importlib.util.spec_from_file_location("_validation_bench", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[spec.name]
+        raise
+    return module

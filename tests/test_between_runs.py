@@ -11,11 +11,8 @@ other turn-on offsets), against the seed paper's model.
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from collections.abc import Mapping
 from dataclasses import replace
-from pathlib import Path
 from types import ModuleType
 from typing import Any
 
@@ -37,22 +34,6 @@ from accelcore.simulate import effects as se
 from accelcore.simulate import events as sev
 
 HOURS = 0.5
-
-
-@pytest.fixture(scope="module")
-def bench() -> ModuleType:
-    """``benches/validation.py``, imported under a private name."""
-    path = Path(__file__).resolve().parents[1] / "benches" / "validation.py"
-    spec = importlib.util.spec_from_file_location("_validation_bench_runs", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-    except BaseException:
-        del sys.modules[spec.name]
-        raise
-    return module
 
 
 def turn_on_case(bench: ModuleType, seed: int, *part: object) -> Any:

@@ -1,36 +1,18 @@
 """The cheapest cases of ``benches/validation.py``, on short sessions: scored on another session.
 
-The bench module is loaded by its path (the tests do not put the checkout's
-``benches`` package on the import path); the cases, the scoring and the rules are
-those of the table in ``docs/diagnosis.md``, with 0.5 h runs instead of 1 h.
+The bench module is loaded by its path (the ``bench`` fixture of ``conftest.py``: the
+tests do not put the checkout's ``benches`` package on the import path); the cases,
+the scoring and the rules are those of the table in ``docs/diagnosis.md``, with 0.5 h
+runs instead of 1 h.
 """
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
 from types import ModuleType
 
 import pytest
 
 HOURS = 0.5
-
-
-@pytest.fixture(scope="module")
-def bench() -> ModuleType:
-    """``benches/validation.py``, imported under a private name."""
-    path = Path(__file__).resolve().parents[1] / "benches" / "validation.py"
-    spec = importlib.util.spec_from_file_location("_validation_bench", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-    except BaseException:
-        del sys.modules[spec.name]
-        raise
-    return module
 
 
 def case(bench: ModuleType, name: str) -> object:
