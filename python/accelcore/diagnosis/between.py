@@ -61,15 +61,34 @@ FloatArray = NDArray[np.float64]
 _CONSTANT_RTOL = 1e-9
 
 
-def _window_runs(eng: Engine) -> tuple[NDArray[np.int64], int]:
-    """Return the run (0..K-1) of every window and K, the runs with weight (kept per engine)."""
-    found: tuple[NDArray[np.int64], int] | None = eng.__dict__.get("_window_runs")
+@dataclass(frozen=True)
+class _Runs:
+    """The runs of an engine's windows.
+
+    Each window's run (0..k-1), its weight (0 in a run without weight) and each run's
+    total weight (1 where it is 0).
+    """
+
+    index: NDArray[np.int64]
+    k: int
+    weight: FloatArray
+    total: FloatArray
+
+
+def _window_runs(eng: Engine) -> _Runs:
+    """Return the runs of the engine's windows (kept per engine)."""
+    found: _Runs | None = eng.__dict__.get("_window_runs")
     if found is None:
         run = eng.sample_run[eng.window_start]
         present = np.unique(run[eng.window_weight > 0])
         index = np.full(int(run.max()) + 1 if run.size else 0, -1, dtype=np.int64)
         index[present] = np.arange(present.size)
-        found = (index[run], int(present.size))
+        of_window = index[run]
+        k = int(present.size)
+        weight = np.where(of_window >= 0, eng.window_weight, 0.0)
+        of_window = of_window.clip(min=0)
+        total = np.bincount(of_window, weights=weight, minlength=k)
+        found = _Runs(of_window, k, weight, np.where(total > 0, total, 1.0))
         eng.__dict__["_window_runs"] = found
     return found
 
@@ -79,12 +98,12 @@ def _is_run_constant(eng: Engine, key: object) -> bool:
     cache: dict[object, bool] = eng.__dict__.setdefault("_run_constant", {})
     found = cache.get(key)
     if found is None:
-        run, k = _window_runs(eng)
-        keep = (run >= 0) & (eng.window_weight > 0)
+        runs = _window_runs(eng)
+        keep = runs.weight > 0
         col = eng._window_column(key)[keep]  # type: ignore[arg-type]
-        r = run[keep]
-        hi = np.full(k, -np.inf)
-        lo = np.full(k, np.inf)
+        r = runs.index[keep]
+        hi = np.full(runs.k, -np.inf)
+        lo = np.full(runs.k, np.inf)
         np.maximum.at(hi, r, col)
         np.minimum.at(lo, r, col)
         size = np.maximum(np.abs(hi), np.abs(lo))
@@ -95,7 +114,7 @@ def _is_run_constant(eng: Engine, key: object) -> bool:
 
 def n_runs(eng: Engine) -> int:
     """Return the number of runs with weight."""
-    return _window_runs(eng)[1]
+    return _window_runs(eng).k
 
 
 def run_constant_keys(eng: Engine, axis: str, terms: Sequence[Term]) -> frozenset[int]:
@@ -117,7 +136,7 @@ def run_level_cut(
     this figure.
     """
     (rss0, _), (rss1, _) = _run_level(eng, axis, current), _run_level(eng, axis, candidate)
-    runs = _window_runs(eng)[1]
+    runs = _window_runs(eng).k
     ms = rms_mg * rms_mg
     if not (runs and ms > 0):
         return 0.0
@@ -138,28 +157,44 @@ def _run_level(eng: Engine, axis: str, terms: Sequence[Term]) -> tuple[float, in
 
     The model is fitted on every sample (its held-out fit's coefficients on all data);
     the dof is the runs less the rank of the run means of its run-constant columns.
+    Kept per engine: a candidate's figures serve its least improvement and then the
+    family's joint test.
     """
-    run, k = _window_runs(eng)
+    cache: dict[tuple[str, tuple[Term, ...]], tuple[float, int]] = eng.__dict__.setdefault(
+        "_run_level", {}
+    )
+    key = (axis, tuple(terms))
+    found = cache.get(key)
+    if found is None:
+        if len(cache) >= eng.memo_size:
+            cache.clear()
+        found = cache[key] = _run_level_of(eng, axis, terms)
+    return found
+
+
+def _run_level_of(eng: Engine, axis: str, terms: Sequence[Term]) -> tuple[float, int]:
+    """:func:`_run_level`, computed."""
+    runs = _window_runs(eng)
     keys = eng._keys(axis, terms)
-    y = eng._yc[axis]
-    w = np.where(run >= 0, eng.window_weight, 0.0)
-    r = run.clip(min=0)
-    resid = y.copy()
+    resid = eng._yc[axis].copy()
     held = eng._heldout_of(axis, terms)
-    constant = run_constant_keys(eng, axis, terms)
-    z = np.zeros((k, len(constant)))
-    wsum = np.bincount(r, weights=w, minlength=k)
+    constant = sorted(run_constant_keys(eng, axis, terms))
+    z = np.zeros((runs.k, len(constant)))
     if held is not None:
         beta = np.asarray(held.coefficients, dtype=np.float64)
         for j, key in enumerate(keys):
-            col = eng._window_column(key)
             if beta[j] != 0.0 and np.isfinite(beta[j]):
-                resid = resid - beta[j] * col
-        for i, j in enumerate(sorted(constant)):
-            z[:, i] = np.bincount(r, weights=w * eng._window_column(keys[j]), minlength=k) / wsum
-    means = np.bincount(r, weights=w * resid, minlength=k) / wsum
+                resid -= beta[j] * eng._window_column(key)
+        for i, j in enumerate(constant):
+            z[:, i] = _run_means(runs, eng._window_column(keys[j]))
+    means = _run_means(runs, resid)
     rank = int(np.linalg.matrix_rank(z)) if z.size else 0
-    return float(means @ means), k - rank
+    return float(means @ means), runs.k - rank
+
+
+def _run_means(runs: _Runs, values: FloatArray) -> FloatArray:
+    """Return the weighted mean of a window column over each run."""
+    return np.bincount(runs.index, weights=runs.weight * values, minlength=runs.k) / runs.total
 
 
 @dataclass(frozen=True)
@@ -275,17 +310,13 @@ def within_run_sse_blocks(eng: Engine, axis: str, terms: Sequence[Term]) -> Floa
     key = (axis, tuple(terms))
     found = cache.get(key)
     if found is None:
-        run, k = _window_runs(eng)
-        w = np.where(run >= 0, eng.window_weight, 0.0)
-        r = run.clip(min=0)
+        runs = _window_runs(eng)
         resid = heldout_window_residuals(eng, axis, terms)
-        wsum = np.bincount(r, weights=w, minlength=k)
-        level = np.bincount(r, weights=w * resid, minlength=k) / np.where(wsum > 0, wsum, 1.0)
-        d = resid - level[r]
+        d = resid - _run_means(runs, resid)[runs.index]
         found = (
-            np.bincount(eng.window_block, weights=w * d * d, minlength=eng.block_start.size).astype(
-                np.float64
-            )
+            np.bincount(
+                eng.window_block, weights=runs.weight * d * d, minlength=eng.block_start.size
+            ).astype(np.float64)
             + eng._within[axis]
         )
         if len(cache) >= eng.memo_size:

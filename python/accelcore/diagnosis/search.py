@@ -38,6 +38,7 @@ from .structure import MIN_TEMPERATURE_SPAN_C, temperature_span_c
 
 __all__ = [
     "confounding",
+    "cross_sources",
     "profile_se",
     "search_1d",
     "search_many",
@@ -79,6 +80,11 @@ FloatArray = NDArray[np.float64]
 _CONFOUND_TAU_S = 120.0
 
 
+def cross_sources(eng: Engine, axis: str) -> tuple[str, ...]:
+    """Return the other axes that see two gravity values (sources of cross-axis gains)."""
+    return tuple(b for b in AXES if b != axis and eng.gravity_values[AXES.index(b)] >= 2)
+
+
 def variants(
     family: str,
     axis: str,
@@ -109,7 +115,7 @@ def variants(
             for k in range(max(2, spec.gain_order + 1), max_order + 1)
         ]
     elif family == "misalignment" and not spec.cross:
-        sources = tuple(b for b in AXES if b != axis and eng.gravity_values[AXES.index(b)] >= 2)
+        sources = cross_sources(eng, axis)
         if sources:
             out = [(family, "from " + "+".join(sources), replace(spec, cross=sources))]
     elif family == "nonlinearity" and axis not in spec.squares and own_values >= 3:

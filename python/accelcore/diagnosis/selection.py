@@ -337,11 +337,6 @@ def _best_family(
     return named
 
 
-def _cross_identified(eng: Engine, axis: str) -> bool:
-    """Tell whether some other axis sees two gravity values (a cross-axis gain of ``axis``)."""
-    return any(eng.gravity_values[AXES.index(b)] >= 2 for b in AXES if b != axis)
-
-
 def _pooled(values: Mapping[str, float]) -> float:
     return math.sqrt(sum(v * v for v in values.values()) / len(values))
 
@@ -482,11 +477,11 @@ def diagnose(
     # support them (judged between runs, :mod:`.between`).
     # (Only where the family can add them back: another axis sees two gravity values.)
     held_cross = "misalignment" in tried and any(
-        spec.cross and _cross_identified(eng, a) for a, spec in specs.items()
+        spec.cross and search.cross_sources(eng, a) for a, spec in specs.items()
     )
     if held_cross:
         specs = {
-            a: replace(spec, cross=()) if _cross_identified(eng, a) else spec
+            a: replace(spec, cross=()) if search.cross_sources(eng, a) else spec
             for a, spec in specs.items()
         }
     specs_at_start = dict(specs)

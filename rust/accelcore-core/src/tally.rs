@@ -165,6 +165,22 @@ impl RawStats {
             channel_ranges: vec![ChannelRange::default(); n_channels],
         }
     }
+
+    /// Count one finite time, s: the first, or an interval from the last (the longest
+    /// interval, and a gap when longer than `gap_s`).
+    #[inline]
+    fn push_time(&mut self, time_s: f64, gap_s: f64) {
+        if self.first_time_s.is_nan() {
+            self.first_time_s = time_s;
+        } else {
+            let dt = time_s - self.last_time_s;
+            if dt > self.max_interval_s {
+                self.max_interval_s = dt;
+            }
+            self.n_gaps += u64::from(dt > gap_s);
+        }
+        self.last_time_s = time_s;
+    }
 }
 
 /// Streaming accumulator of [`RawStats`]: `push` rows, `merge` a following piece,
@@ -238,16 +254,7 @@ impl RunTally {
         }
         s.n_skipped_nonfinite += u64::from(!finite);
         if time_s.is_finite() {
-            if s.first_time_s.is_nan() {
-                s.first_time_s = time_s;
-            } else {
-                let dt = time_s - s.last_time_s;
-                if dt > s.max_interval_s {
-                    s.max_interval_s = dt;
-                }
-                s.n_gaps += u64::from(dt > self.gap_s);
-            }
-            s.last_time_s = time_s;
+            s.push_time(time_s, self.gap_s);
         }
     }
 
@@ -297,15 +304,7 @@ impl RunTally {
         {
             // Every time finite: the first row's interval from the last row tallied,
             // then those within the rows in one pass without a branch per row.
-            if s.first_time_s.is_nan() {
-                s.first_time_s = first;
-            } else {
-                let dt = first - s.last_time_s;
-                if dt > s.max_interval_s {
-                    s.max_interval_s = dt;
-                }
-                s.n_gaps += u64::from(dt > self.gap_s);
-            }
+            s.push_time(first, self.gap_s);
             let (mut longest, mut n_gaps) = (s.max_interval_s, 0u64);
             for pair in time_s.windows(2) {
                 let dt = pair[1] - pair[0];
@@ -319,16 +318,7 @@ impl RunTally {
         }
         for &t in time_s {
             if t.is_finite() {
-                if s.first_time_s.is_nan() {
-                    s.first_time_s = t;
-                } else {
-                    let dt = t - s.last_time_s;
-                    if dt > s.max_interval_s {
-                        s.max_interval_s = dt;
-                    }
-                    s.n_gaps += u64::from(dt > self.gap_s);
-                }
-                s.last_time_s = t;
+                s.push_time(t, self.gap_s);
             }
         }
     }
