@@ -38,6 +38,7 @@ from accelcore import core
 from accelcore.model import Term
 
 from .engine import Engine
+from .inside import excess
 from .stats import accept, f_sf
 
 __all__ = [
@@ -296,18 +297,22 @@ def heldout_window_residuals(eng: Engine, axis: str, terms: Sequence[Term]) -> F
     return y - fitted
 
 
-def within_run_sse_blocks(eng: Engine, axis: str, terms: Sequence[Term]) -> FloatArray:
+def within_run_sse_blocks(
+    eng: Engine, axis: str, terms: Sequence[Term], per_sample: bool = False
+) -> FloatArray:
     """Return the held-out squared error per block less each run's mean held-out residual.
 
     What a model predicts of the runs' levels is taken out: the error left is how the
     residual moves *inside* runs, which the blocks of one run see independently.
     Computed on window means (exactly: a window's samples share its model columns), the
-    deviations of the samples about their window means added as in :meth:`Engine.cv`.
+    deviations of the samples about their window means added as in :meth:`Engine.cv`;
+    ``per_sample``: and what the model's moves inside windows add
+    (:func:`.inside.excess`), the error per sample.
     """
-    cache: dict[tuple[str, tuple[Term, ...]], FloatArray] = eng.__dict__.setdefault(
+    cache: dict[tuple[str, tuple[Term, ...], bool], FloatArray] = eng.__dict__.setdefault(
         "_within_run_sse", {}
     )
-    key = (axis, tuple(terms))
+    key = (axis, tuple(terms), per_sample)
     found = cache.get(key)
     if found is None:
         runs = _window_runs(eng)
@@ -319,6 +324,8 @@ def within_run_sse_blocks(eng: Engine, axis: str, terms: Sequence[Term]) -> Floa
             ).astype(np.float64)
             + eng._within[axis]
         )
+        if per_sample:
+            found = found + excess(eng, axis, terms)
         if len(cache) >= eng.memo_size:
             cache.clear()
         cache[key] = found
@@ -333,6 +340,7 @@ def within_runs(
     *,
     min_improvement: float,
     alpha: float,
+    per_sample: bool = False,
 ) -> core.Acceptance:
     """Judge a candidate on its held-out error inside runs (the diagnosis' paired test).
 
@@ -346,8 +354,8 @@ def within_runs(
     those (:func:`between_runs_p`).
     """
     return accept(
-        within_run_sse_blocks(eng, axis, current),
-        within_run_sse_blocks(eng, axis, candidate),
+        within_run_sse_blocks(eng, axis, current, per_sample),
+        within_run_sse_blocks(eng, axis, candidate, per_sample),
         min_improvement=min_improvement,
         alpha=alpha,
     )

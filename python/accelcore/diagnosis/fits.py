@@ -35,6 +35,9 @@ class CV:
     sse_in: float  # in-sample weighted SSE, mg²
     rms_out: float
     rms_in: float
+    #: The held-out error is per sample, the model's moves inside windows counted
+    #: (:mod:`accelcore.diagnosis.inside`); else of window means.
+    per_sample: bool = False
 
 
 @dataclass(frozen=True)

@@ -40,9 +40,10 @@ from accelcore.result.calibration import Calibration
 from . import search
 from .between import cross_left_out
 from .ends import improved_calibration, starting_point, usable_extras
-from .engine import CV, Engine
+from .engine import Engine
 from .events import find_run_events
 from .generic import TEMPERATURE_OBSERVABLES, generic_variants
+from .inside import alike
 from .observables import STEADY_C_PER_MIN
 from .parameters import added_parameters, fit_models
 from .result import Diagnosis, Step
@@ -56,14 +57,12 @@ from .structure import (
     structures,
     temperature_span_c,
 )
-from .verdicts import Candidate, Tried, judge, judge_between_runs
+from .verdicts import Candidate, Tried, best_family, judge, judge_between_runs, redundant
 
 __all__ = ["QUALITY_EXPLAINS", "diagnose"]
 
-#: A generic family (``smooth``) is chosen over the best named one only when it cuts
-#: the held-out squared error by this factor more: the named ones are its special
-#: cases with fewer parameters.
-GENERIC_MARGIN = 1.1
+#: Most times the selection starts again without families made redundant by later ones.
+MAX_RESTARTS = 2
 
 
 @dataclass(frozen=True)
@@ -91,15 +90,45 @@ class _Selection:
         self.cand_rows: list[dict[str, Any]] = []
         self.notes: list[str] = []
         self.session_events: list[dict[str, Any]] = []
+        #: (family, axis) left out: redundant beside later effects (see :meth:`run`).
+        self.banned: set[tuple[str, str]] = set()
 
     def run(self, max_steps: int) -> None:
+        """Add effects until none is accepted; again without any that others made redundant.
+
+        When a family chosen at one step no longer passes its test beside those chosen
+        after it (:func:`.verdicts.redundant`), the selection starts again with that
+        family left out on that axis, at most :data:`MAX_RESTARTS` times.
+        """
+        start = dict(self.specs)
+        for attempt in range(MAX_RESTARTS + 1):
+            self._run(max_steps)
+            added = [(s.effect, s.axes) for s in self.steps[1:]]
+            rules = self.rules
+            extra = redundant(self.eng, self.specs, added, rules.min_improvement, rules.alpha)
+            if not extra or attempt == MAX_RESTARTS:
+                return
+            self.banned |= {(c.family, c.axis) for c in extra}
+            self.notes.append(
+                "; ".join(
+                    f"{c.family} on {c.axis} left out: beside the effects chosen after it, "
+                    f"it no longer passes (cut {c.cut:.1%}, p {c.p:.2g})"
+                    for c in extra
+                )
+                + "; the effects were chosen again without it"
+            )
+            self.specs = dict(start)
+            self.cv_cur = {a: self.eng.cv(a, start[a].terms(a)) for a in AXES}
+            self.steps, self.cand_rows = [], []
+
+    def _run(self, max_steps: int) -> None:
         """Record the base model as step 0, then add effects until none is accepted."""
         self.steps.append(self._step(0, "base", [], []))
         for step in range(1, max_steps + 1):
             if self.eng.n_folds < 2:
                 break
             by_family = self._candidates(step)
-            best = _best_family(by_family, self.cv_cur)
+            best = best_family(by_family)
             if best is None:
                 break
             chosen = [c for c in by_family[best] if c.accepted]
@@ -204,6 +233,9 @@ class _Selection:
                     groups.setdefault(o[0], []).append(o)
                 for fam, opts in groups.items():
                     cand = self._judge(step, a, fam, opts)
+                    if (fam, a) in self.banned:
+                        cand.accepted = cand.row["accepted"] = False
+                        cand.row["judged"] = "left out (redundant beside later effects)"
                     by_family.setdefault(fam, []).append(cand)
         for cands in by_family.values():
             judge_between_runs(self.eng, cands, self.cv_cur, self.rules.alpha)
@@ -273,7 +305,8 @@ class _Selection:
         search.search_many(self.eng, tried, self.rules.tau_range_s)
         for a, make in tried:
             tau, cv = search.search_1d(self.eng, a, make, self.rules.tau_range_s)
-            if cv.rms_out < self.cv_cur[a].rms_out * 0.999:
+            (cur, cv), _ = alike(self.eng, a, [self.cv_cur[a], cv])
+            if cv.rms_out < cur.rms_out * 0.999:
                 self.specs[a], self.cv_cur[a] = make(tau), cv
 
     def _step(
@@ -311,30 +344,6 @@ class _Selection:
             {c.axis: c.p for c in chosen},
             {a: self.specs[a].terms(a) for a in AXES},
         )
-
-
-def _best_family(
-    by_family: Mapping[str, Sequence[Candidate]], cv_cur: Mapping[str, CV]
-) -> str | None:
-    """Return the family that cuts held-out SSE most over the axes accepting it.
-
-    A generic family (``... vs ...``) or a session event wins only by
-    :data:`GENERIC_MARGIN` over the best named family of the part.
-    """
-    best: dict[bool, tuple[str | None, float]] = {False: (None, 0.0), True: (None, 0.0)}
-    for fam, cands in by_family.items():
-        gain = sum(
-            float(cv_cur[c.axis].sse_blocks.sum() - c.cv.sse_blocks.sum())
-            for c in cands
-            if c.accepted
-        )
-        generic = " vs " in fam or is_event(fam)
-        if gain > best[generic][1]:
-            best[generic] = (fam, gain)
-    (named, g_named), (generic_fam, g_generic) = best[False], best[True]
-    if generic_fam is not None and g_generic > GENERIC_MARGIN * g_named:
-        return generic_fam
-    return named
 
 
 def _pooled(values: Mapping[str, float]) -> float:

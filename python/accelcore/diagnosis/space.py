@@ -25,7 +25,15 @@ from accelcore.model import (
     Term,
 )
 
-__all__ = ["EVENT_PREFIX", "FAMILIES", "Spec", "is_event", "spec_from_terms", "with_tau"]
+__all__ = [
+    "EVENT_PREFIX",
+    "FAMILIES",
+    "Spec",
+    "is_event",
+    "spec_from_terms",
+    "with_tau",
+    "without",
+]
 
 #: Candidate effect families of the catalogue, in the order they are tried.
 FAMILIES = (
@@ -221,3 +229,32 @@ def _generic(term: Term, axis: str) -> bool:
 def with_tau(spec: Spec, variant: str, tau: float) -> Spec:
     """Return ``spec`` with a die lag (``variant="die"``) or a rate term (else), time ``tau``."""
     return replace(spec, tau=tau) if variant == "die" else replace(spec, rate_tau=tau)
+
+
+def without(spec: Spec, family: str) -> Spec:
+    """Return ``spec`` without what ``family`` added (as the selection names families).
+
+    A temperature curvature goes back to the line, a lag to none; misalignment, the
+    nonlinearity, the drift, an extra column (``extra:NAME``) and a generic or event
+    family (its terms carry its name) are taken out whole.
+    """
+    if family == "offset_curvature":
+        return replace(spec, offset_order=min(spec.offset_order, 1))
+    if family == "sensitivity_curvature":
+        return replace(spec, gain_order=min(spec.gain_order, 1))
+    if family == "thermal_lag":
+        return replace(spec, tau=None, rate_tau=None)
+    if family == "misalignment":
+        return replace(spec, cross=())
+    if family == "nonlinearity":
+        return replace(spec, squares=())
+    if family == "drift":
+        return replace(spec, drift=False, gain_drift=False)
+    if family.startswith("extra:"):
+        name = family.split(":", 1)[1]
+        return replace(spec, extras=tuple(e for e in spec.extras if e != name))
+    return replace(
+        spec,
+        generic=tuple(t for t in spec.generic if t.effect != family),
+        events=tuple(t for t in spec.events if t.effect != family),
+    )

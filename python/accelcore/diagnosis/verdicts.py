@@ -28,10 +28,24 @@ from .between import (
     within_runs,
 )
 from .engine import CV, Engine
-from .space import Spec
+from .inside import alike, is_rough, per_sample
+from .space import Spec, is_event, without
 from .stats import accept
 
-__all__ = ["Candidate", "Tried", "judge", "judge_between_runs"]
+__all__ = [
+    "GENERIC_MARGIN",
+    "Candidate",
+    "Tried",
+    "best_family",
+    "judge",
+    "judge_between_runs",
+    "redundant",
+]
+
+#: A generic family (``smooth``) is chosen over the best named one only when it cuts
+#: the held-out squared error by this factor more: the named ones are its special
+#: cases with fewer parameters.
+GENERIC_MARGIN = 1.1
 
 #: (family, variant label, CV, spec) of one variant tried.
 Tried = tuple[str, str, CV, Spec]
@@ -54,6 +68,8 @@ class Candidate:
     p: float
     accepted: bool
     row: dict[str, Any]
+    #: The current model's figures it was judged against (scored as ``cv`` is).
+    before: CV
 
 
 def judge(
@@ -67,6 +83,18 @@ def judge(
     alpha: float,
 ) -> Candidate:
     """Pick the most parsimonious variant within 1 % of the best; test it (see the module)."""
+    # Where a model that cuts, or the current one, moves roughly inside windows, they
+    # are scored per sample (:mod:`.inside`); all of them where the current one does
+    # (its error per sample is then well above its window-level one).
+    cutting = [o[2].rms_out < cur.rms_out for o in opts]
+    rough_now = cur.per_sample or is_rough(eng, axis, cur.terms)
+    _, exact = alike(eng, axis, [cur, *(o[2] for o, c in zip(opts, cutting, strict=True) if c)])
+    if exact:
+        cur = per_sample(eng, axis, cur)
+        opts = [
+            (f, label, per_sample(eng, axis, cv) if c or rough_now else cv, s)
+            for (f, label, cv, s), c in zip(opts, cutting, strict=True)
+        ]
     finite = [o for o in opts if math.isfinite(o[2].rms_out)] or list(opts[:1])
     best_rms = min(o[2].rms_out for o in finite)
     _, label, cv, spec = next((o for o in finite if o[2].rms_out <= best_rms * 1.01), finite[0])
@@ -77,7 +105,13 @@ def judge(
     inside = not runs_only and n_runs(eng) >= 2 and v.cut > 0
     if inside:
         v = within_runs(
-            eng, axis, cur.terms, cv.terms, min_improvement=min_improvement, alpha=alpha
+            eng,
+            axis,
+            cur.terms,
+            cv.terms,
+            min_improvement=min_improvement,
+            alpha=alpha,
+            per_sample=exact,
         )
     cut, t, p, ok = v.cut, v.t, v.p, v.accepted
     # Columns constant in every run: no held-out fold can judge them (run folds cannot
@@ -104,7 +138,7 @@ def judge(
         else ("held-out blocks inside runs" if inside else "held-out blocks"),
         "accepted": ok,
     }
-    return Candidate(family, axis, label, spec, cv, cut, t, p, ok, row)
+    return Candidate(family, axis, label, spec, cv, cut, t, p, ok, row, cur)
 
 
 def judge_between_runs(
@@ -131,3 +165,64 @@ def judge_between_runs(
             c.row["p_between_runs"] = test.p
         elif c.row["judged"] == "between runs":
             c.accepted = c.row["accepted"] = False
+
+
+def redundant(
+    eng: Engine,
+    specs: Mapping[str, Spec],
+    added: Sequence[tuple[str, Sequence[str]]],
+    min_improvement: float,
+    alpha: float,
+) -> list[Candidate]:
+    """Return the chosen families that no longer pass their test beside the others.
+
+    Each (family, axes) of ``added`` is judged as if it were added last: the model of
+    each axis without it against the model with it, by :func:`judge`. A family chosen
+    early may have stood in, in part, for one chosen later (a linear drift of the
+    sensitivity for a sensitivity that follows the heating and cooling legs: the legs
+    come in the same order in every run); beside it, it may no longer cut the error.
+    Session events and families judged between runs (their joint test is over axes)
+    are not tested again.
+    """
+    out: list[Candidate] = []
+    for family, axes in added:
+        if is_event(family):
+            continue
+        for a in axes:
+            spec = specs[a]
+            bare = without(spec, family)
+            if bare == spec:
+                continue
+            cand = judge(
+                eng,
+                0,
+                a,
+                family,
+                [(family, "", eng.cv(a, spec.terms(a)), spec)],
+                eng.cv(a, bare.terms(a)),
+                min_improvement,
+                alpha,
+            )
+            if cand.row["judged"] != "between runs" and not cand.accepted:
+                out.append(cand)
+    return out
+
+
+def best_family(by_family: Mapping[str, Sequence[Candidate]]) -> str | None:
+    """Return the family that cuts held-out SSE most over the axes accepting it.
+
+    A generic family (``... vs ...``) or a session event wins only by
+    :data:`GENERIC_MARGIN` over the best named family of the part.
+    """
+    best: dict[bool, tuple[str | None, float]] = {False: (None, 0.0), True: (None, 0.0)}
+    for fam, cands in by_family.items():
+        gain = sum(
+            float(c.before.sse_blocks.sum() - c.cv.sse_blocks.sum()) for c in cands if c.accepted
+        )
+        generic = " vs " in fam or is_event(fam)
+        if gain > best[generic][1]:
+            best[generic] = (fam, gain)
+    (named, g_named), (generic_fam, g_generic) = best[False], best[True]
+    if generic_fam is not None and g_generic > GENERIC_MARGIN * g_named:
+        return generic_fam
+    return named
