@@ -5,12 +5,15 @@ logged, entering the model where it acts. This module offers that mechanism
 whole. Each *observable* — temperature (``dT^1``), its rate of change (``dTdt``)
 and every extra logged column (``extra:NAME``) — may enter as a continuous
 piecewise-linear function (its line and :class:`~accelcore.model.Hinge` pieces at
-three evenly spaced knots) in one *slot*: the offset, or the gain on the gravity
-of one axis (the axis' own gravity: sensitivity; another axis': cross-axis
-coupling). Each (slot, observable) pair is a family of its own, named by what it
-depends on and where it acts, e.g. ``offset vs dtemp_dt_c_per_min`` or ``gain on
-g_y vs supply_v``; the selection tries every one of them on every axis by the
-same held-out test as the named families. Time since the run's start is left to
+three evenly spaced knots where its data dwells) in one *slot*: the offset, the
+sensitivity (the gain on the axis' own gravity) or the gain on another axis' gravity
+(cross-axis coupling). Each (slot, observable) pair is a family of its own, named by what it
+depends on and where it acts, e.g. ``offset vs dtemp_dt_c_per_min``, ``sensitivity
+vs supply_v`` (one family over the axes, as ``sensitivity_curvature`` is: a
+sensitivity that follows the supply on x and y is the same effect on z, where the
+data may not tell it from a curvature) or ``gain on g_y vs supply_v``; the selection
+tries every one of them on every axis by the same held-out test as the named
+families. Time since the run's start is left to
 the named drift and warm-up (see :func:`observables`). Should a term of time
 ever enter here, it is a session event (:func:`accelcore.diagnosis.space.is_event`).
 """
@@ -51,9 +54,9 @@ __all__ = [
 ]
 
 #: Where an observable's hinges sit, as fractions of the span of its values (5th to
-#: 95th percentile): four linear pieces of equal width. Evenly spaced rather than at
-#: quantiles, so that a rate of change that is mostly 0 and ±ramp (a chamber profile)
-#: still gets knots across its range.
+#: 95th percentile): four linear pieces of equal width, a knot kept only where the data
+#: dwells (see :data:`_MIN_NEAR`). Evenly spaced rather than at quantiles, so that a
+#: temperature that soaks at its ends still gets knots across its range.
 KNOT_FRACTIONS = (0.25, 0.5, 0.75)
 
 #: The finer variant: eight pieces (its knots hold the coarse ones), for a sharper
@@ -73,6 +76,17 @@ TEMPERATURE_OBSERVABLES = ("temperature_c", "dtemp_dt_c_per_min")
 
 #: Least fraction of the weighted samples on each side of a knot.
 _MIN_SIDE = 0.05
+
+#: A knot is kept where at least this share of what an even spread would put within
+#: half a knot spacing of it is there. A knot between two values the data dwells at
+#: (a rate of change that is mostly 0 and ±ramp: a chamber profile) would bend the
+#: function where only the few samples of a ramp's start and end are, and another
+#: session that dwells there (a slower ramp) would get what those transients fitted:
+#: an offset tempco that differs between heating and cooling, fitted so by hinges of
+#: the rate at ±1.34 °C/min, took an independent session ramping at 1.5 °C/min from
+#: 1.24 to 17.6 mg. Without them, the function between two dwelling values is the
+#: straight line between them.
+_MIN_NEAR = 0.5
 
 
 def observables(eng: Engine) -> list[tuple[str, Basis]]:
@@ -106,7 +120,7 @@ def observable_unit(inner: Basis) -> str:
 def knots(
     eng: Engine, inner: Basis, fractions: Sequence[float] = KNOT_FRACTIONS
 ) -> tuple[float, ...]:
-    """Knots of an observable at ``fractions`` of its 5–95 % span; distinct, none near an end."""
+    """Knots of an observable at ``fractions`` of its 5–95 % span where its data dwells."""
     key = (inner, tuple(fractions))
     if key not in eng.knot_cache:
         # Every set of knots of an observable reads its used values and span once.
@@ -129,8 +143,14 @@ def _knots(
     # Rounded to a hundredth of the span's decade: readable, and the same on reruns.
     step = 10.0 ** (math.floor(math.log10(hi - lo)) - 2)
     out: list[float] = []
+    # Half the distance between neighbouring knots: the stretch a knot bends.
+    reach = 0.5 * (hi - lo) / (len(fractions) + 1)
     for q in fractions:
-        k = round((lo + q * (hi - lo)) / step) * step
+        raw = lo + q * (hi - lo)
+        near = np.count_nonzero(np.abs(v - raw) <= reach) / v.size
+        if near < _MIN_NEAR / (len(fractions) + 1):
+            continue
+        k = round(raw / step) * step
         k = float(f"{k:.6g}")
         below = np.count_nonzero(v <= k) / v.size
         if not _MIN_SIDE <= below <= 1 - _MIN_SIDE:
@@ -141,9 +161,15 @@ def _knots(
     return tuple(out)
 
 
-def slot_name(source: str | None) -> str:
-    """Readable name of a slot: ``offset`` or ``gain on g_<axis>``."""
-    return "offset" if source is None else f"gain on g_{source}"
+def slot_name(source: str | None, axis: str | None = None) -> str:
+    """Return the readable name of a slot of ``axis``' model.
+
+    ``offset``, ``sensitivity`` (the gain on its own gravity) or ``gain on g_<source>``
+    (cross-axis coupling).
+    """
+    if source is None:
+        return "offset"
+    return "sensitivity" if source == axis else f"gain on g_{source}"
 
 
 @functools.lru_cache(maxsize=4096)
@@ -214,7 +240,7 @@ def generic_variants(
         for source in sources:
             if (source, inner) in held:
                 continue
-            family = f"{slot_name(source)} vs {name}"
+            family = f"{slot_name(source, axis)} vs {name}"
             event = isinstance(inner, Elapsed)
             if event:
                 family = EVENT_PREFIX + family
