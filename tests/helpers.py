@@ -295,3 +295,14 @@ def simulated_session(sim: simulate.SimulatedArrays, decimation_factor: int = 10
         sensor=sim.sensor,
         decimation_factor=decimation_factor,
     )
+
+
+def chamber_rate_c_per_min(state: Any) -> FloatArray:
+    """The chamber's rate of change in a simulated run, °C/min, averaged over 60 s (centred).
+
+    For effects defined in the tests (not the library's): the simulator's own
+    ``RunState`` (``time_s``, ``chamber_temp_c``, ``rate_hz``).
+    """
+    rate = np.gradient(state.chamber_temp_c, state.time_s) * 60.0
+    k = max(1, int(60 * state.rate_hz))
+    return np.asarray(np.convolve(rate, np.ones(k) / k, mode="same"), dtype=np.float64)

@@ -27,14 +27,9 @@ import pytest
 
 from accelcore.diagnosis.generic import KNOT_FRACTIONS, _knots
 from accelcore.simulate.chain import RunState
+from helpers import chamber_rate_c_per_min
 
 HOURS = 1.0
-
-
-def _rate_c_per_s(state: RunState) -> np.ndarray:
-    rate = np.gradient(state.chamber_temp_c, state.time_s)
-    k = max(1, int(60 * state.rate_hz))
-    return np.convolve(rate, np.ones(k) / k, mode="same")
 
 
 def _mg(state: RunState, mg: np.ndarray) -> np.ndarray:
@@ -50,7 +45,7 @@ class LegTempco:
     stage: str = "response"
 
     def apply(self, state: RunState, rng: np.random.Generator) -> None:
-        leg = np.tanh(_rate_c_per_s(state) / 0.002)[:, None]
+        leg = np.tanh(chamber_rate_c_per_min(state) / 0.12)[:, None]
         dt = (state.die_temp_c - 25.0)[:, None]
         state.output = state.output + _mg(state, np.asarray(self.mg_per_c) * leg * dt)
 

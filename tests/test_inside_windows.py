@@ -30,15 +30,9 @@ from accelcore.diagnosis.space import Spec, without
 from accelcore.diagnosis.verdicts import judge, redundant
 from accelcore.model import AXES, Extra, Hinge, TemperatureRate, Term
 from accelcore.simulate.chain import RunState
+from helpers import chamber_rate_c_per_min
 
 HOURS = 1.0
-
-
-def _rate_c_per_min(state: RunState) -> np.ndarray:
-    """The chamber's rate of change, °C/min, averaged over 60 s (centred)."""
-    rate = np.gradient(state.chamber_temp_c, state.time_s) * 60.0
-    k = max(1, int(60 * state.rate_hz))
-    return np.convolve(rate, np.ones(k) / k, mode="same")
 
 
 @dataclass(frozen=True)
@@ -50,7 +44,7 @@ class SensitivityVsRate:
     stage: str = "response"
 
     def apply(self, state: RunState, rng: np.random.Generator) -> None:
-        rel = np.asarray(self.pct_per_c_per_min) / 100.0 * _rate_c_per_min(state)[:, None]
+        rel = np.asarray(self.pct_per_c_per_min) / 100.0 * chamber_rate_c_per_min(state)[:, None]
         state.output = state.output + rel * state.truth.sensitivity_per_g * state.specific_force_g
 
 

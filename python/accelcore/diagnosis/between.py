@@ -38,6 +38,7 @@ from accelcore import core
 from accelcore.model import Term
 
 from .engine import Engine
+from .fits import fold_coefficients
 from .inside import excess
 from .stats import accept, f_sf
 
@@ -285,11 +286,7 @@ def heldout_window_residuals(eng: Engine, axis: str, terms: Sequence[Term]) -> F
     if held is None:
         return y.copy()
     keys = eng._keys(axis, terms)
-    beta_in = np.asarray(held.coefficients, dtype=np.float64)
-    beta = np.zeros((eng.n_folds, beta_in.size))
-    beta[: held.fold_coefficients.shape[0]] = held.fold_coefficients
-    # A fold without a weighted row leaves every row for training: the fit on all data.
-    beta[np.isnan(beta).any(axis=1)] = beta_in
+    _, beta = fold_coefficients(held, eng.n_folds)
     per_window = beta[eng.block_fold[eng.window_block]]
     fitted = np.zeros_like(y)
     for j, key in enumerate(keys):

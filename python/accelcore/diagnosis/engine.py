@@ -54,7 +54,7 @@ from accelcore.model import (
 )
 from accelcore.result.calibration import AxisModel, Calibration, nominal_sensitivity
 
-from .fits import CV, Fit
+from .fits import CV, Fit, fold_coefficients
 from .folds import choose_folds, cut_blocks
 from .parts import cut_parts
 from .windows import choose_windows
@@ -514,11 +514,7 @@ class Engine:
         if held is None:
             y, w = self.y[axis], self.w
             return Fit(columns, np.zeros(0), np.zeros((self.n_folds, 0)), float((w * y * y).sum()))
-        beta_in = np.asarray(held.coefficients, dtype=np.float64)
-        beta_fold = np.zeros((self.n_folds, beta_in.size))
-        beta_fold[: held.fold_coefficients.shape[0]] = held.fold_coefficients
-        # A fold without a weighted row leaves every row for training: the fit on all data.
-        beta_fold[np.isnan(beta_fold).any(axis=1)] = beta_in
+        beta_in, beta_fold = fold_coefficients(held, self.n_folds)
         within = self._within_total[axis]
         return Fit(columns, beta_in, beta_fold, float(held.in_sample_rss) + within)
 

@@ -14,13 +14,27 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore.core import LeastSquares
+from accelcore.core import HeldOutFit, LeastSquares
 from accelcore.errors import SingularSystemError
 from accelcore.model import Term
 
-__all__ = ["CV", "Fit"]
+__all__ = ["CV", "Fit", "fold_coefficients"]
 
 FloatArray = NDArray[np.float64]
+
+
+def fold_coefficients(held: HeldOutFit, n_folds: int) -> tuple[FloatArray, FloatArray]:
+    """Return the coefficients of a held-out fit on all data and per fold (one row each).
+
+    A fold without a weighted row leaves every row for training: its row is the fit on
+    all data; a fold the core did not report (past its last) is zeros.
+    """
+    beta_in = np.asarray(held.coefficients, dtype=np.float64)
+    beta_fold = np.zeros((n_folds, beta_in.size))
+    beta_fold[: held.fold_coefficients.shape[0]] = held.fold_coefficients
+    beta_fold[np.isnan(beta_fold).any(axis=1)] = beta_in
+    return beta_in, beta_fold
+
 
 #: Column names of the accumulators: the column's index, so that a rank error maps back.
 _NAMES = [str(i) for i in range(64)]

@@ -28,8 +28,9 @@ residuals), else on window means, as before.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,11 +38,12 @@ from numpy.typing import NDArray
 from accelcore.model import AXES, Term
 
 from .engine import Engine
-from .fits import CV
+from .fits import CV, fold_coefficients
 
 __all__ = ["ROUGH_STRIDE", "SCREEN", "alike", "excess", "is_rough", "per_sample"]
 
 FloatArray = NDArray[np.float64]
+T = TypeVar("T")
 
 #: Largest share of an axis' deviations inside windows (its per-sample noise, mostly)
 #: that the bound of a model's moves inside windows may reach for its window-level
@@ -56,14 +58,7 @@ ROUGH_STRIDE = 4
 def _fold_beta(eng: Engine, axis: str, terms: Sequence[Term]) -> FloatArray | None:
     """Coefficients of the fit that held each fold out, one row per fold (None: no column)."""
     held = eng._heldout_of(axis, terms)
-    if held is None:
-        return None
-    beta_in = np.asarray(held.coefficients, dtype=np.float64)
-    beta = np.zeros((eng.n_folds, beta_in.size))
-    beta[: held.fold_coefficients.shape[0]] = held.fold_coefficients
-    # A fold without a weighted row leaves every row for training: the fit on all data.
-    beta[np.isnan(beta).any(axis=1)] = beta_in
-    return beta
+    return None if held is None else fold_coefficients(held, eng.n_folds)[1]
 
 
 def _roughness(eng: Engine, key: tuple[object, str | None]) -> float:
@@ -102,60 +97,53 @@ def _roughness(eng: Engine, key: tuple[object, str | None]) -> float:
     return found
 
 
+def _kept(eng: Engine, name: str, memo: object, make: Callable[[], T], limit: int) -> T:
+    """``make()``, kept in the engine's cache ``name`` under ``memo`` (cleared when full)."""
+    cache: dict[object, T] = eng.__dict__.setdefault(name, {})
+    if memo not in cache:
+        if len(cache) >= limit:
+            cache.clear()
+        cache[memo] = make()
+    return cache[memo]
+
+
 def is_rough(eng: Engine, axis: str, terms: Sequence[Term]) -> bool:
     """Tell whether a model's moves inside windows may matter (the screen of the module)."""
-    cache: dict[tuple[str, tuple[Term, ...]], bool] = eng.__dict__.setdefault(
-        "_inside_is_rough", {}
-    )
-    memo = (axis, tuple(terms))
-    found = cache.get(memo)
-    if found is None:
+
+    def screen() -> bool:
         beta = _fold_beta(eng, axis, terms)
-        found = False
-        if beta is not None:
-            keys = eng._keys(axis, terms)
-            largest = np.abs(beta).max(axis=0)
-            bound = sum(float(b) * _roughness(eng, k) for b, k in zip(largest, keys, strict=True))
-            found = bound * bound > SCREEN * eng._within_total[axis]
-        if len(cache) >= 4 * eng.memo_size:
-            cache.clear()
-        cache[memo] = found
-    return found
+        if beta is None:
+            return False
+        keys = eng._keys(axis, terms)
+        largest = np.abs(beta).max(axis=0)
+        bound = sum(float(b) * _roughness(eng, k) for b, k in zip(largest, keys, strict=True))
+        return bound * bound > SCREEN * eng._within_total[axis]
+
+    return _kept(eng, "_inside_is_rough", (axis, tuple(terms)), screen, 4 * eng.memo_size)
 
 
 def excess(eng: Engine, axis: str, terms: Sequence[Term]) -> FloatArray:
     """Per block, what a model's moves inside windows add to its held-out error (kept)."""
-    cache: dict[tuple[str, tuple[Term, ...]], FloatArray] = eng.__dict__.setdefault(
-        "_inside_excess", {}
-    )
-    memo = (axis, tuple(terms))
-    found = cache.get(memo)
-    if found is None:
-        found = np.zeros(eng.block_start.size)
-        beta = _fold_beta(eng, axis, terms)
-        if beta is not None:
-            keys = eng._keys(axis, terms)
-            columns = [eng._key_column(k) for k in keys]
-            fitted = np.empty(eng.n)
-            for k, spans in enumerate(eng.fold_spans):
-                for s, e in spans:
-                    part = np.zeros(e - s)
-                    for col, b in zip(columns, beta[k], strict=True):
-                        part += col[s:e] * b
-                    fitted[s:e] = part
-            per_window = beta[eng.block_fold[eng.window_block]]
-            window_fitted = np.zeros(eng.n_windows)
-            for j, key in enumerate(keys):
-                window_fitted += eng._window_column(key) * per_window[:, j]
-            g = fitted - window_fitted[eng.sample_window]
-            r = eng.y[axis] - eng._yc[axis][eng.sample_window]
-            found = np.bincount(
-                eng.sample_block, weights=eng.w * g * (g - 2.0 * r), minlength=found.size
-            ).astype(np.float64)
-        if len(cache) >= eng.memo_size:
-            cache.clear()
-        cache[memo] = found
-    return found
+
+    def make() -> FloatArray:
+        fit = eng.fit(axis, terms)
+        if not fit.columns:
+            return np.zeros(eng.block_start.size)
+        y = eng.y[axis]
+        # The fitted values per sample (each with its fold's coefficients), less the
+        # window's mean of them.
+        fitted = y - eng.heldout_residuals(y, fit)
+        per_window = fit.beta_fold[eng.block_fold[eng.window_block]]
+        window_fitted = np.zeros(eng.n_windows)
+        for j, key in enumerate(eng._keys(axis, terms)):
+            window_fitted += eng._window_column(key) * per_window[:, j]
+        g = fitted - window_fitted[eng.sample_window]
+        r = y - eng._yc[axis][eng.sample_window]
+        return np.bincount(
+            eng.sample_block, weights=eng.w * g * (g - 2.0 * r), minlength=eng.block_start.size
+        ).astype(np.float64)
+
+    return _kept(eng, "_inside_excess", (axis, tuple(terms)), make, eng.memo_size)
 
 
 def per_sample(eng: Engine, axis: str, cv: CV) -> CV:
