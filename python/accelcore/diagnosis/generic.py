@@ -3,9 +3,9 @@
 The named families are special cases of one mechanism: a function of something
 logged, entering the model where it acts. This module offers that mechanism
 whole. Each *observable* — temperature (``dT^1``), its rate of change (``dTdt``)
-and every extra logged column (``extra:NAME``) — may enter as a continuous
-piecewise-linear function (its line and :class:`~accelcore.model.Hinge` pieces at
-three evenly spaced knots where its data dwells) in one *slot*: the offset, the
+and every extra logged column (``extra:NAME``) — may enter as its line alone or as a
+continuous piecewise-linear function (its line and :class:`~accelcore.model.Hinge`
+pieces at three evenly spaced knots where its data dwells) in one *slot*: the offset, the
 sensitivity (the gain on the axis' own gravity) or the gain on another axis' gravity
 (cross-axis coupling). Each (slot, observable) pair is a family of its own, named by what it
 depends on and where it acts, e.g. ``offset vs dtemp_dt_c_per_min``, ``sensitivity
@@ -45,6 +45,7 @@ from .space import EVENT_PREFIX, Spec
 
 __all__ = [
     "KNOT_FRACTIONS",
+    "LINE",
     "TEMPERATURE_OBSERVABLES",
     "generic_variants",
     "knots",
@@ -52,6 +53,9 @@ __all__ = [
     "observables",
     "slot_name",
 ]
+
+#: Label of the generic family's simplest variant: the observable's line alone.
+LINE = "line"
 
 #: Where an observable's hinges sit, as fractions of the span of its values (5th to
 #: 95th percentile): four linear pieces of equal width, a knot kept only where the data
@@ -213,11 +217,12 @@ def generic_variants(
     for name, inner in observables(eng):
         if name in skip:
             continue
-        coarse = knots(eng, inner)
-        if not coarse:
-            continue
-        sets = [coarse]
-        for fractions in (FINE_KNOT_FRACTIONS, FINEST_KNOT_FRACTIONS):
+        knots(eng, inner)
+        if eng.span_cache[inner][1] is None:
+            continue  # it does not vary
+        # The line alone, then the hinges: four pieces, eight, sixteen.
+        sets: list[tuple[float, ...]] = [()]
+        for fractions in (KNOT_FRACTIONS, FINE_KNOT_FRACTIONS, FINEST_KNOT_FRACTIONS):
             ks = knots(eng, inner, fractions)
             if len(ks) > len(sets[-1]):
                 sets.append(ks)
@@ -229,7 +234,7 @@ def generic_variants(
                 [
                     (t.basis, None if t.kind == "offset" else t.source)
                     for source in sources
-                    for t in _slot_terms(inner, source, "", sets[0])
+                    for t in _slot_terms(inner, source, "", sets[min(1, len(sets) - 1)])
                 ],
             )
             for name, inner, sets in found
@@ -247,11 +252,14 @@ def generic_variants(
             variants: list[tuple[str, Spec]] = []
             for ks in sets:
                 terms = [t for t in _slot_terms(inner, source, family, ks) if _key(t) not in have]
-                label = "knots " + "/".join(f"{k:g}" for k in ks) + f" {unit}"
+                if not terms:
+                    continue  # the line alone, already in the model
+                label = LINE if not ks else "knots " + "/".join(f"{k:g}" for k in ks) + f" {unit}"
                 if event:
                     variants.append((label, replace(spec, events=(*spec.events, *terms))))
                 else:
                     variants.append((label, replace(spec, generic=(*spec.generic, *terms))))
-            first = variants[0]
-            out.append((family, first[0], first[1], variants[1:]))
+            if variants:
+                first = variants[0]
+                out.append((family, first[0], first[1], variants[1:]))
     return out

@@ -42,7 +42,7 @@ from .between import cross_left_out
 from .ends import improved_calibration, starting_point, usable_extras
 from .engine import Engine
 from .events import find_run_events
-from .generic import TEMPERATURE_OBSERVABLES, generic_variants
+from .generic import LINE, TEMPERATURE_OBSERVABLES, generic_variants
 from .inside import alike
 from .observables import STEADY_C_PER_MIN
 from .parameters import added_parameters, fit_models
@@ -207,15 +207,18 @@ class _Selection:
         ]
 
     def _tried_generic(self, axis: str, spec: Spec) -> list[Tried]:
-        """Cross-validate the generic coarse variants, and the fine ones where those cut."""
+        """Cross-validate the generic variants: the line, the hinges, finer ones where they cut."""
         tried: list[Tried] = []
         cur = self.cv_cur[axis].rms_out
+        least = 0.5 * self.rules.min_improvement
         skip = self.rules.skip_observables
         for family, label, s, finer in generic_variants(axis, spec, self.eng, skip):
             cv = self.eng.cv(axis, s.terms(axis))
             tried.append((family, label, cv, s))
             for fine_label, fine in finer:
-                if not cur > 0 or 1.0 - cv.rms_out / cur < 0.5 * self.rules.min_improvement:
+                # The first hinges are tried whatever the line alone does.
+                coarser_cuts = cur > 0 and 1.0 - cv.rms_out / cur >= least
+                if not coarser_cuts and tried[-1][1] != LINE:
                     break  # the coarser one does not cut: no finer one is tried
                 cv = self.eng.cv(axis, fine.terms(axis))
                 tried.append((family, fine_label, cv, fine))
