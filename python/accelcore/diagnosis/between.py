@@ -38,8 +38,7 @@ from accelcore import core
 from accelcore.model import Term
 
 from .engine import Engine
-from .fits import fold_coefficients
-from .inside import excess
+from .inside import excess, heldout_window_residuals
 from .stats import accept, f_sf
 
 __all__ = [
@@ -162,16 +161,7 @@ def _run_level(eng: Engine, axis: str, terms: Sequence[Term]) -> tuple[float, in
     Kept per engine: a candidate's figures serve its least improvement and then the
     family's joint test.
     """
-    cache: dict[tuple[str, tuple[Term, ...]], tuple[float, int]] = eng.__dict__.setdefault(
-        "_run_level", {}
-    )
-    key = (axis, tuple(terms))
-    found = cache.get(key)
-    if found is None:
-        if len(cache) >= eng.memo_size:
-            cache.clear()
-        found = cache[key] = _run_level_of(eng, axis, terms)
-    return found
+    return eng.kept("_run_level", (axis, tuple(terms)), lambda: _run_level_of(eng, axis, terms))
 
 
 def _run_level_of(eng: Engine, axis: str, terms: Sequence[Term]) -> tuple[float, int]:
@@ -274,26 +264,6 @@ def cross_left_out(rows: Sequence[Mapping[str, object]], min_improvement: float)
     )
 
 
-def heldout_window_residuals(eng: Engine, axis: str, terms: Sequence[Term]) -> FloatArray:
-    """Return each window's mean residual under the fit that held its fold out, mg.
-
-    The window-level half of the engine's held-out error: the weighted squares of
-    these, summed per block, plus each block's deviations of the samples about their
-    window means, are :meth:`Engine.cv`'s ``sse_blocks``.
-    """
-    y = eng._yc[axis]
-    held = eng._heldout_of(axis, terms)
-    if held is None:
-        return y.copy()
-    keys = eng._keys(axis, terms)
-    _, beta = fold_coefficients(held, eng.n_folds)
-    per_window = beta[eng.block_fold[eng.window_block]]
-    fitted = np.zeros_like(y)
-    for j, key in enumerate(keys):
-        fitted += eng._window_column(key) * per_window[:, j]
-    return y - fitted
-
-
 def within_run_sse_blocks(
     eng: Engine, axis: str, terms: Sequence[Term], per_sample: bool = False
 ) -> FloatArray:
@@ -306,12 +276,8 @@ def within_run_sse_blocks(
     ``per_sample``: and what the model's moves inside windows add
     (:func:`.inside.excess`), the error per sample.
     """
-    cache: dict[tuple[str, tuple[Term, ...], bool], FloatArray] = eng.__dict__.setdefault(
-        "_within_run_sse", {}
-    )
-    key = (axis, tuple(terms), per_sample)
-    found = cache.get(key)
-    if found is None:
+
+    def make() -> FloatArray:
         runs = _window_runs(eng)
         resid = heldout_window_residuals(eng, axis, terms)
         d = resid - _run_means(runs, resid)[runs.index]
@@ -321,12 +287,9 @@ def within_run_sse_blocks(
             ).astype(np.float64)
             + eng._within[axis]
         )
-        if per_sample:
-            found = found + excess(eng, axis, terms)
-        if len(cache) >= eng.memo_size:
-            cache.clear()
-        cache[key] = found
-    return found
+        return found + excess(eng, axis, terms) if per_sample else found
+
+    return eng.kept("_within_run_sse", (axis, tuple(terms), per_sample), make)
 
 
 def within_runs(

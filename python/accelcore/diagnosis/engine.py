@@ -28,9 +28,10 @@ dependent columns in the model's term order (see
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -62,6 +63,7 @@ from .windows import choose_windows
 __all__ = ["CV", "Engine"]
 
 FloatArray = NDArray[np.float64]
+_T = TypeVar("_T")
 
 
 class Engine:
@@ -212,7 +214,6 @@ class Engine:
         self._within_total = {a: float(self._within[a].sum()) for a in AXES}
         self._wsum = float(self.w.sum())
         self._memo: dict[tuple[str, tuple[_Key, ...]], HeldOutFit] = {}
-        self._by_terms: dict[tuple[str, tuple[Term, ...]], HeldOutFit | None] = {}
         self._fixed_keys = {a: {_loose_key(t) for t, _ in self.fixed[a]} for a in AXES}
         self._free: dict[tuple[str, tuple[Term, ...]], tuple[Term, ...]] = {}
         #: Full fits of axis models on every sample (:func:`.parameters.fit_models`).
@@ -229,9 +230,6 @@ class Engine:
         #: The weighted samples of each observable and their 5–95 % span (for its knots).
         self.span_cache: dict[Basis, tuple[FloatArray, tuple[float, float] | None]] = {}
         self._attempted: set[tuple[str, str]] = set()
-        #: Residuals of the models asked for last (each step, the events and the end
-        #: ask for the same ones).
-        self._residuals: dict[tuple[str, tuple[_Key, ...]], tuple[FloatArray, FloatArray]] = {}
         self._model_keys: tuple[_Key, ...] = ()
         # Catalogues of columns, their rows pushed once: (column index, folds) per lag,
         # or per observable of the generic family (("generic", name)).
@@ -472,14 +470,9 @@ class Engine:
         Terms keep their hash; a model's column keys (bases) would be hashed anew at
         every lookup, and the selection asks for the same models many times.
         """
-        memo_key = (axis, tuple(terms))
-        if memo_key in self._by_terms:
-            return self._by_terms[memo_key]
-        fit = self._heldout(axis, self._keys(axis, terms))
-        if len(self._by_terms) >= self.memo_size:
-            self._by_terms.clear()
-        self._by_terms[memo_key] = fit
-        return fit
+        return self.kept(
+            "_by_terms", (axis, tuple(terms)), lambda: self._heldout(axis, self._keys(axis, terms))
+        )
 
     def _heldout(self, axis: str, keys: tuple[_Key, ...]) -> HeldOutFit | None:
         """Held-out fit of the columns ``keys`` for ``axis`` (None: no free column)."""
@@ -505,6 +498,15 @@ class Engine:
 
     #: Held-out fits kept (models asked for again are not fitted again).
     memo_size = 256
+
+    def kept(self, name: str, memo: object, make: Callable[[], _T], limit: int = 0) -> _T:
+        """``make()``, kept in this engine's cache ``name`` under ``memo`` (a full one cleared)."""
+        cache: dict[object, _T] = self.__dict__.setdefault(name, {})
+        if memo not in cache:
+            if len(cache) >= (limit or self.memo_size):
+                cache.clear()
+            cache[memo] = make()
+        return cache[memo]
 
     def fit(self, axis: str, terms: Sequence[Term]) -> Fit:
         """Fit the free terms of ``terms`` on every fold's training data and on all data."""
@@ -552,19 +554,18 @@ class Engine:
 
     def residuals(self, axis: str, terms: Sequence[Term]) -> tuple[FloatArray, FloatArray]:
         """In-sample and held-out residual per sample, mg (read-only arrays, kept)."""
-        key = (axis, self._keys(axis, terms))
-        found = self._residuals.get(key)
-        if found is None:
+
+        def make() -> tuple[FloatArray, FloatArray]:
             fit = self.fit(axis, terms)
             y = self.y[axis]
             r_in = y - fit.fitted(fit.beta_in) if fit.columns else y.copy()
             found = (r_in, self.heldout_residuals(y, fit))
             for r in found:
                 r.flags.writeable = False
-            if len(self._residuals) >= 4 * len(AXES):
-                self._residuals.clear()
-            self._residuals[key] = found
-        return found
+            return found
+
+        # The models asked for last: each step, the events and the end ask for the same.
+        return self.kept("_residuals", (axis, self._keys(axis, terms)), make, 4 * len(AXES))
 
 
 #: A design column: a basis, alone (offset, ``None``) or times an axis' gravity (gain).

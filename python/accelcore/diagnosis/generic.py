@@ -127,17 +127,24 @@ def knots(
     """Knots of an observable at ``fractions`` of its 5–95 % span where its data dwells."""
     key = (inner, tuple(fractions))
     if key not in eng.knot_cache:
-        # Every set of knots of an observable reads its used values and span once.
-        if inner not in eng.span_cache:
-            v = eng.basis(inner)[eng.w > 0]
-            span = None
-            if v.size >= 8 and np.all(np.isfinite(v)) and v.max() > v.min():
-                lo, hi = (float(x) for x in np.quantile(v, list(_RANGE)))
-                span = (lo, hi) if hi > lo else None
-            eng.span_cache[inner] = (v, span)
-        v, span = eng.span_cache[inner]
+        v, span = _span(eng, inner)
         eng.knot_cache[key] = () if span is None else _knots(v, span, fractions)
     return eng.knot_cache[key]
+
+
+def _span(eng: Engine, inner: Basis) -> tuple[NDArray[np.float64], tuple[float, float] | None]:
+    """Return an observable's weighted samples and their 5–95 % span (None: no spread).
+
+    Read once per engine: every set of knots of the observable uses them.
+    """
+    if inner not in eng.span_cache:
+        v = eng.basis(inner)[eng.w > 0]
+        span = None
+        if v.size >= 8 and np.all(np.isfinite(v)) and v.max() > v.min():
+            lo, hi = (float(x) for x in np.quantile(v, list(_RANGE)))
+            span = (lo, hi) if hi > lo else None
+        eng.span_cache[inner] = (v, span)
+    return eng.span_cache[inner]
 
 
 def _knots(
@@ -217,8 +224,7 @@ def generic_variants(
     for name, inner in observables(eng):
         if name in skip:
             continue
-        knots(eng, inner)
-        if eng.span_cache[inner][1] is None:
+        if _span(eng, inner)[1] is None:
             continue  # it does not vary
         # The line alone, then the hinges: four pieces, eight, sixteen.
         sets: list[tuple[float, ...]] = [()]

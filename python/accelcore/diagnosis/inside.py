@@ -28,9 +28,8 @@ residuals), else on window means, as before.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import replace
-from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,10 +39,17 @@ from accelcore.model import AXES, Term
 from .engine import Engine
 from .fits import CV, fold_coefficients
 
-__all__ = ["ROUGH_STRIDE", "SCREEN", "alike", "excess", "is_rough", "per_sample"]
+__all__ = [
+    "ROUGH_STRIDE",
+    "SCREEN",
+    "alike",
+    "excess",
+    "heldout_window_residuals",
+    "is_rough",
+    "per_sample",
+]
 
 FloatArray = NDArray[np.float64]
-T = TypeVar("T")
 
 #: Largest share of an axis' deviations inside windows (its per-sample noise, mostly)
 #: that the bound of a model's moves inside windows may reach for its window-level
@@ -97,14 +103,24 @@ def _roughness(eng: Engine, key: tuple[object, str | None]) -> float:
     return found
 
 
-def _kept(eng: Engine, name: str, memo: object, make: Callable[[], T], limit: int) -> T:
-    """``make()``, kept in the engine's cache ``name`` under ``memo`` (cleared when full)."""
-    cache: dict[object, T] = eng.__dict__.setdefault(name, {})
-    if memo not in cache:
-        if len(cache) >= limit:
-            cache.clear()
-        cache[memo] = make()
-    return cache[memo]
+def heldout_window_residuals(eng: Engine, axis: str, terms: Sequence[Term]) -> FloatArray:
+    """Return each window's mean residual under the fit that held its fold out, mg.
+
+    The window-level half of the engine's held-out error: the weighted squares of
+    these, summed per block, plus each block's deviations of the samples about their
+    window means, are :meth:`Engine.cv`'s ``sse_blocks``.
+    """
+    y = eng._yc[axis]
+    held = eng._heldout_of(axis, terms)
+    if held is None:
+        return y.copy()
+    keys = eng._keys(axis, terms)
+    _, beta = fold_coefficients(held, eng.n_folds)
+    per_window = beta[eng.block_fold[eng.window_block]]
+    fitted = np.zeros_like(y)
+    for j, key in enumerate(keys):
+        fitted += eng._window_column(key) * per_window[:, j]
+    return y - fitted
 
 
 def is_rough(eng: Engine, axis: str, terms: Sequence[Term]) -> bool:
@@ -119,7 +135,7 @@ def is_rough(eng: Engine, axis: str, terms: Sequence[Term]) -> bool:
         bound = sum(float(b) * _roughness(eng, k) for b, k in zip(largest, keys, strict=True))
         return bound * bound > SCREEN * eng._within_total[axis]
 
-    return _kept(eng, "_inside_is_rough", (axis, tuple(terms)), screen, 4 * eng.memo_size)
+    return eng.kept("_inside_is_rough", (axis, tuple(terms)), screen, 4 * eng.memo_size)
 
 
 def excess(eng: Engine, axis: str, terms: Sequence[Term]) -> FloatArray:
@@ -129,21 +145,18 @@ def excess(eng: Engine, axis: str, terms: Sequence[Term]) -> FloatArray:
         fit = eng.fit(axis, terms)
         if not fit.columns:
             return np.zeros(eng.block_start.size)
-        y = eng.y[axis]
-        # The fitted values per sample (each with its fold's coefficients), less the
-        # window's mean of them.
-        fitted = y - eng.heldout_residuals(y, fit)
-        per_window = fit.beta_fold[eng.block_fold[eng.window_block]]
-        window_fitted = np.zeros(eng.n_windows)
-        for j, key in enumerate(eng._keys(axis, terms)):
-            window_fitted += eng._window_column(key) * per_window[:, j]
-        g = fitted - window_fitted[eng.sample_window]
-        r = y - eng._yc[axis][eng.sample_window]
+        # The response's deviation from its window mean (r), and the fitted values' (g,
+        # each sample with its fold's coefficients): the held-out residual per sample less
+        # the window's, taken from r.
+        win = eng.sample_window
+        r = eng.y[axis] - eng._yc[axis][win]
+        r_out = eng.heldout_residuals(eng.y[axis], fit)
+        g = r - (r_out - heldout_window_residuals(eng, axis, terms)[win])
         return np.bincount(
             eng.sample_block, weights=eng.w * g * (g - 2.0 * r), minlength=eng.block_start.size
         ).astype(np.float64)
 
-    return _kept(eng, "_inside_excess", (axis, tuple(terms)), make, eng.memo_size)
+    return eng.kept("_inside_excess", (axis, tuple(terms)), make)
 
 
 def per_sample(eng: Engine, axis: str, cv: CV) -> CV:

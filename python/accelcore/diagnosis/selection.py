@@ -83,15 +83,19 @@ class _Selection:
 
     def __init__(self, eng: Engine, specs: dict[str, Spec], rules: _Rules) -> None:
         self.eng = eng
-        self.specs = specs
         self.rules = rules
-        self.cv_cur = {a: eng.cv(a, specs[a].terms(a)) for a in AXES}
-        self.steps: list[Step] = []
-        self.cand_rows: list[dict[str, Any]] = []
+        self._start(specs)
         self.notes: list[str] = []
         self.session_events: list[dict[str, Any]] = []
         #: (family, axis) left out: redundant beside later effects (see :meth:`run`).
         self.banned: set[tuple[str, str]] = set()
+
+    def _start(self, specs: Mapping[str, Spec]) -> None:
+        """Set every axis' model to ``specs``, with no step and no candidate yet."""
+        self.specs = dict(specs)
+        self.cv_cur = {a: self.eng.cv(a, self.specs[a].terms(a)) for a in AXES}
+        self.steps: list[Step] = []
+        self.cand_rows: list[dict[str, Any]] = []
 
     def run(self, max_steps: int) -> None:
         """Add effects until none is accepted; again without any that others made redundant.
@@ -117,9 +121,7 @@ class _Selection:
                 )
                 + "; the effects were chosen again without it"
             )
-            self.specs = dict(start)
-            self.cv_cur = {a: self.eng.cv(a, start[a].terms(a)) for a in AXES}
-            self.steps, self.cand_rows = [], []
+            self._start(start)
 
     def _run(self, max_steps: int) -> None:
         """Record the base model as step 0, then add effects until none is accepted."""
