@@ -255,6 +255,8 @@ class LeastSquares:
         Number of unknowns, 1 to 64.
     column_names : list of str, optional
         Names used in results and errors; default ``x0, x1, ...``.
+    n_responses : int, default 1
+        Right-hand sides sharing the design, 1 to 64 (one factor ``R`` serves all).
 
     Notes
     -----
@@ -267,17 +269,49 @@ class LeastSquares:
     NonFiniteError.
     """
 
-    def __new__(cls, n_columns: int, *, column_names: list[str] | None = None) -> LeastSquares: ...
+    def __new__(
+        cls, n_columns: int, *, column_names: list[str] | None = None, n_responses: int = 1
+    ) -> LeastSquares: ...
     def push(
         self, design: ArrayLike, response: ArrayLike, weights: ArrayLike | None = None
     ) -> None:
-        """Push rows: ``design`` (n, p), ``response`` (n), ``weights`` (n, >= 0) or None for 1."""
+        """Push rows: ``design`` (n, p), ``response`` (n, or (n, m) with m responses).
+
+        ``weights`` (n, >= 0), or None for 1.
+        """
+
+    def push_mapped(
+        self,
+        source: LeastSquares,
+        map: ArrayLike,
+        responses: list[int] | None = None,
+        shift: ArrayLike | None = None,
+    ) -> None:
+        """Push the rows of ``source`` seen through a linear map of its columns.
+
+        As if each row ``sqrt(w) [x | y]`` pushed into ``source`` were pushed here as
+        ``sqrt(w) [x @ map | y[r] - x @ shift[:, k]]`` with ``r = responses[k]`` for
+        this problem's response ``k``: equal up to rounding, at the cost of the
+        source's triangle (``q`` rows) instead of its rows. A design whose columns are
+        a few functions of the samples times per-stretch constants is the QR of those
+        functions once per stretch, then ``q`` rows per stretch.
+
+        Parameters
+        ----------
+        source : LeastSquares
+            With ``q`` columns.
+        map : array_like, shape (q, n_columns)
+        responses : list of int, optional
+            The source's response for each of this problem's; default ``0, 1, ...``.
+        shift : array_like, shape (q, n_responses), optional
+            Subtracted from each response through the source's columns.
+        """
 
     def merge(self, other: LeastSquares) -> None:
         """Merge another problem with the same columns."""
 
-    def finish(self) -> LstsqSolution:
-        """Solve.
+    def finish(self, response: int = 0) -> LstsqSolution:
+        """Solve for ``response`` (0 to ``n_responses - 1``).
 
         Raises
         ------
@@ -291,6 +325,8 @@ class LeastSquares:
     def n_columns(self) -> int: ...
     @property
     def n_rows(self) -> int: ...
+    @property
+    def n_responses(self) -> int: ...
 
 @final
 class HeldOutFit:

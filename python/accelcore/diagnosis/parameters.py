@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from accelcore.fitting.calibrate import fit_axis
+from accelcore.fitting.reduced import MAX_FUNCTIONS, Reduced, functions_of
 from accelcore.model import (
     AXES,
     Basis,
@@ -134,15 +135,29 @@ def fit_models(
     models: dict[str, AxisModel] = {}
     fixed_all: list[str] = []
     notes: list[str] = []
+    chosen = {a: tuple(specs[a].terms(a)) for a in axes}
+    # One QR per stretch of the functions the axes' models use, for the three axes
+    # (accelcore.fitting.reduced), kept for the models asked for again.
+    functions = functions_of([t for a in axes for t in chosen[a]])
+    reduced = (
+        eng.kept("_reduced", functions, lambda: Reduced.of(eng.data, functions, eng.references), 8)
+        if len(functions) <= MAX_FUNCTIONS and any((a, chosen[a]) not in eng.fitted for a in axes)
+        else None
+    )
     for a in axes:
         i = AXES.index(a)
-        terms = tuple(specs[a].terms(a))
+        terms = chosen[a]
         # The selection asks again for models it has fitted (a step's figures, then the
         # final calibration): each is fitted once.
         done = eng.fitted.get((a, terms))
         if done is None:
             done = fit_axis(
-                a, terms, eng.data, None if nominal is None else nominal[i], eng.references
+                a,
+                terms,
+                eng.data,
+                None if nominal is None else nominal[i],
+                eng.references,
+                reduced=reduced,
             )
             eng.fitted[(a, terms)] = done
         model, fixed, axis_notes = done

@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 from accelcore import core
 from accelcore._accelcore import __version__
 from accelcore.errors import InsufficientDataError, ParameterError, SingularSystemError
+from accelcore.fitting.reduced import MAX_FUNCTIONS, Reduced, functions_of
 from accelcore.fitting.stacking import CutFeatures, Stacked, block_weights, stack_session
 from accelcore.input.session import Session
 from accelcore.model import (
@@ -37,7 +38,6 @@ from accelcore.model import (
     TemperaturePower,
     Term,
     base_terms,
-    design_columns,
     full_gain_terms,
 )
 from accelcore.result.calibration import AxisModel, Calibration, nominal_sensitivity
@@ -53,29 +53,31 @@ def fit_axis(
     nominal: float | None,
     references: Mapping[str, float],
     rows: Sequence[int] | None = None,
+    reduced: Reduced | None = None,
 ) -> tuple[AxisModel, list[str], list[str]]:
     """Weighted least squares of one axis; fix what the data cannot identify.
 
-    Returns the model, the names of terms held fixed, and notes.
+    ``reduced``: the stretches already reduced to functions that cover ``terms``
+    (:mod:`accelcore.fitting.reduced`; shared by the axes of one fit), else reduced
+    here. Returns the model, the names of terms held fixed, and notes.
     """
     a = AXES.index(axis)
     parts = range(len(data.features)) if rows is None else rows
-    design = np.vstack(
-        [design_columns(terms, data.features[i], data.gravity[i], references) for i in parts]
-    )
-    response = np.concatenate([data.output[i][:, a] for i in parts])
-    weight = np.concatenate([data.weight[i] for i in parts])
+    if reduced is None or not reduced.covers(terms):
+        reduced = Reduced.of(data, functions_of(terms), references)
+    maps = {i: reduced.map(terms, data.gravity[i]) for i in parts}
     p = len(terms)
     fixed = np.zeros(p)
     estimated = np.ones(p, dtype=bool)
     fixed_names: list[str] = []
     notes: list[str] = []
     names = [f"{axis}:{_public_name(t, axis)}" for t in terms]
-    # Drop all-zero columns first (e.g. the sensitivity of an axis that never saw gravity).
-    # Only compared with 0: one pass without temporaries, in any summation order.
-    col_norm = np.sqrt(np.einsum("i,ij,ij->j", weight, design, design))
-    n_used = int(np.count_nonzero(weight > 0))
-    for j, span, span_all in _thin_temperature_terms(axis, terms, data, parts, weight):
+    # Drop all-zero columns first (e.g. the sensitivity of an axis that never saw gravity):
+    # a column is its stretch's constant times one function, so sum w x² is exact from
+    # the functions' sums of squares (only compared with 0).
+    col_ss = sum((np.square(maps[i]) * reduced.sum_squares[i][:, None]).sum(axis=0) for i in parts)
+    n_used = sum(int(np.count_nonzero(data.weight[i] > 0)) for i in parts)
+    for j, span, span_all in _thin_temperature_terms(axis, terms, data, parts):
         estimated[j] = False
         notes.append(
             f"{axis}: {_public_name(terms[j], axis)} not identified: the samples that carry it "
@@ -84,7 +86,7 @@ def fit_axis(
         )
     while True:
         for j in range(p):
-            if estimated[j] and col_norm[j] == 0.0:
+            if estimated[j] and col_ss[j] == 0.0:
                 estimated[j] = False
         cols = np.flatnonzero(estimated)
         if cols.size == 0:
@@ -94,9 +96,7 @@ def fit_axis(
                 f"axis {axis}: {n_used} decimated sample(s) for {cols.size} model terms; a fit "
                 "needs more samples than terms (log longer sweeps, or check rate_hz)"
             )
-        y, x = _held_out(design, response, estimated, fixed)
-        lsq = core.LeastSquares(int(cols.size), column_names=[names[j] for j in cols])
-        lsq.push(x, y, weight)
+        lsq = _pushed(reduced, maps, a, estimated, fixed, [names[j] for j in cols])
         try:
             sol = lsq.finish()
             break
@@ -120,7 +120,7 @@ def fit_axis(
                 "these orientations); the fitted offset absorbs the rest"
             )
         fixed_names.append(names[j])
-        if t.kind == "gain" and t.source == axis and col_norm[j] > 0:
+        if t.kind == "gain" and t.source == axis and col_ss[j] > 0:
             # The axis saw gravity, but one value of it only: this gain term is
             # collinear with the offset term of the same basis, which then carries
             # their sum. Say so rather than report it as the offset.
@@ -138,37 +138,38 @@ def fit_axis(
     # Refit if a nominal was introduced after the loop (response changed).
     if np.any(fixed != 0):
         cols = np.flatnonzero(estimated)
-        y, x = _held_out(design, response, estimated, fixed)
-        lsq = core.LeastSquares(int(cols.size), column_names=[names[j] for j in cols])
-        lsq.push(x, y, weight)
-        sol = lsq.finish()
+        sol = _pushed(reduced, maps, a, estimated, fixed, [names[j] for j in cols]).finish()
     coefficients = fixed.copy()
     coefficients[estimated] = sol.coefficients
     covariance = np.zeros((p, p))
     cols = np.flatnonzero(estimated)
     covariance[np.ix_(cols, cols)] = sol.covariance
-    rms = math.sqrt(sol.residual_sum_squares / weight.sum())
-    model = AxisModel(
-        axis, tuple(terms), coefficients, covariance, estimated, int(response.shape[0]), rms
-    )
+    weight_total = sum(float(data.weight[i].sum()) for i in parts)
+    rms = math.sqrt(sol.residual_sum_squares / weight_total)
+    n_samples = sum(len(data.features[i]) for i in parts)
+    model = AxisModel(axis, tuple(terms), coefficients, covariance, estimated, n_samples, rms)
     return model, fixed_names, notes
 
 
-def _held_out(
-    design: NDArray[np.float64],
-    response: NDArray[np.float64],
+def _pushed(
+    reduced: Reduced,
+    maps: Mapping[int, NDArray[np.float64]],
+    response: int,
     estimated: NDArray[np.bool_],
     fixed: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Return the response less the fixed terms, and the estimated columns in C order.
+    names: list[str],
+) -> core.LeastSquares:
+    """Return the least squares of the estimated columns, the fixed ones' part taken out.
 
-    With every term estimated (the usual case), the response and the design as they are:
-    subtracting the empty product would change no bit, and a column selection would copy.
+    Each stretch's factor pushed through its map (``push_mapped``): its estimated
+    columns, and the fixed columns times their values as a shift of the response.
     """
-    if estimated.all():
-        return response, np.ascontiguousarray(design)
-    y = response - design[:, ~estimated] @ fixed[~estimated]
-    return y, np.ascontiguousarray(design.take(np.flatnonzero(estimated), axis=1))
+    lsq = core.LeastSquares(int(np.count_nonzero(estimated)), column_names=names)
+    some_fixed = not estimated.all()
+    for i, m in maps.items():
+        shift = (m[:, ~estimated] @ fixed[~estimated])[:, None] if some_fixed else None
+        lsq.push_mapped(reduced.factors[i], m[:, estimated], [response], shift)
+    return lsq
 
 
 #: A temperature term is identified only by samples spread over at least this
@@ -182,29 +183,39 @@ def _thin_temperature_terms(
     terms: Sequence[Term],
     data: Stacked,
     parts: Sequence[int] | range,
-    weight: NDArray[np.float64],
 ) -> list[tuple[int, float, float]]:
-    """Temperature terms whose carrying samples span too little temperature: (index, spans)."""
-    temps = np.concatenate([data.features[i].temperature_c for i in parts])
-    grav = np.concatenate(
-        [np.broadcast_to(data.gravity[i], (len(data.features[i]), 3)) for i in parts]
-    )
-    used = weight > 0
-    if not used.any():
+    """Temperature terms whose carrying samples span too little temperature: (index, spans).
+
+    A gain term is carried by the stretches whose gravity on its source axis is not 0
+    (a stretch holds one orientation); the span of a union of stretches is read from
+    each stretch's lowest and highest weighted temperature.
+    """
+    lows: dict[int, float] = {}
+    highs: dict[int, float] = {}
+    for i in parts:
+        temps = data.features[i].temperature_c[data.weight[i] > 0]
+        if temps.size:
+            lows[i], highs[i] = float(temps.min()), float(temps.max())
+    if not lows:
         return []
-    span_all = float(np.ptp(temps[used]))
+
+    def span(stretches: list[int]) -> float:
+        return max(highs[i] for i in stretches) - min(lows[i] for i in stretches)
+
+    span_all = span(list(lows))
     thin = []
     for j, t in enumerate(terms):
         if not t.basis.temperature_order:
             continue
-        rows = used
+        carrying = list(lows)
         if t.kind == "gain":
-            rows = used & (grav[:, AXES.index(t.source or axis)] != 0)
-        if not rows.any():
+            source = AXES.index(t.source or axis)
+            carrying = [i for i in carrying if data.gravity[i][source] != 0]
+        if not carrying:
             continue  # the term's column is zero: dropped as such by the fit
-        span = float(np.ptp(temps[rows]))
-        if span < MIN_SPAN_FRACTION * span_all:
-            thin.append((j, span, span_all))
+        s = span(carrying)
+        if s < MIN_SPAN_FRACTION * span_all:
+            thin.append((j, s, span_all))
     return thin
 
 
@@ -244,9 +255,12 @@ def _fit_joint(
     axes: dict[str, AxisModel] = {}
     not_identified: list[str] = []
     notes: list[str] = list(data.notes)
+    shared = functions_of([t for a in AXES for t in terms[a]])
+    # One QR per stretch for the three axes (each axis' own when they need too many).
+    reduced = Reduced.of(data, shared, refs) if len(shared) <= MAX_FUNCTIONS else None
     for i, a in enumerate(AXES):
         model, fixed, axis_notes = fit_axis(
-            a, terms[a], data, None if nominal is None else nominal[i], refs
+            a, terms[a], data, None if nominal is None else nominal[i], refs, reduced=reduced
         )
         axes[a] = model
         not_identified += fixed

@@ -570,6 +570,115 @@ impl LeastSquares {
         Ok(())
     }
 
+    /// Push the rows of `source` seen through a linear map of its columns.
+    ///
+    /// As if every row `sqrt(w) [x | y]` pushed into `source` were pushed here as
+    /// `sqrt(w) [x · map | y_r - x · shift_r]`, one response `y_r` of `source` per
+    /// response of this problem (`responses[k]` for response `k`): equal up to
+    /// rounding, at the cost of `source`'s `p` triangle rows instead of its rows.
+    /// `source`'s `[R | Z]` holds `sqrt(W) X = Q R` and `Qᵀ sqrt(W) y = Z` (plus
+    /// the residual, orthogonal to every column of `X`), so the design
+    /// `sqrt(W) X map = Q (R map)` and the response less `X shift` have the same
+    /// triangle as the rows `R map`, `Z - R shift`; the residual of `y` (and
+    /// `source`'s row counts) are added as they are. The use: a fit whose columns
+    /// are a few functions of the samples times per-stretch constants (an axis'
+    /// terms: each basis times 1 or the stretch's gravity) is the QR of those few
+    /// functions once per stretch, then `p` rows per stretch.
+    ///
+    /// `map` is `(source.n_columns, self.n_columns)`; `shift`, when given,
+    /// `(source.n_columns, self.n_responses)`.
+    ///
+    /// Errors: [`Error::Shape`] for a map, shift or list of responses of the wrong
+    /// size; [`Error::InvalidParameter`] for a response out of range or a
+    /// non-finite map or shift; those of [`LeastSquares::push`] (a non-finite
+    /// triangle row, after an overflow in `source`).
+    pub fn push_mapped(
+        &mut self,
+        source: &LeastSquares,
+        map: ArrayView2<'_, f64>,
+        responses: &[usize],
+        shift: Option<ArrayView2<'_, f64>>,
+    ) -> Result<()> {
+        let q = source.n_columns;
+        let (p, m) = (self.n_columns, self.n_responses);
+        if map.dim() != (q, p) {
+            return Err(Error::Shape {
+                what: "map (source columns x columns)",
+                expected: q * p,
+                got: map.len(),
+            });
+        }
+        if responses.len() != m {
+            return Err(Error::Shape {
+                what: "responses",
+                expected: m,
+                got: responses.len(),
+            });
+        }
+        if let Some(&r) = responses.iter().find(|&&r| r >= source.n_responses) {
+            return Err(Error::InvalidParameter {
+                name: "responses",
+                reason: format!(
+                    "response {r} is out of range ({} in the source)",
+                    source.n_responses
+                ),
+            });
+        }
+        if let Some(s) = shift {
+            if s.dim() != (q, m) {
+                return Err(Error::Shape {
+                    what: "shift (source columns x responses)",
+                    expected: q * m,
+                    got: s.len(),
+                });
+            }
+        }
+        if !map
+            .iter()
+            .chain(shift.iter().flatten())
+            .all(|v| v.is_finite())
+        {
+            return Err(Error::InvalidParameter {
+                name: "map",
+                reason: "the map and the shift must be finite".to_string(),
+            });
+        }
+        let source = source.settled();
+        let rz = source.rz();
+        let width = q + source.n_responses;
+        let (mut design, mut rhs) = (Vec::with_capacity(q * p), Vec::with_capacity(q * m));
+        for i in 0..q {
+            let row = &rz[i * width..(i + 1) * width];
+            if row.iter().all(|&v| v == 0.0) {
+                continue; // no data in this direction: a zero row changes nothing
+            }
+            // R is upper triangular: columns i.. of row i.
+            design.extend((0..p).map(|j| (i..q).map(|k| row[k] * map[[k, j]]).sum::<f64>()));
+            rhs.extend(responses.iter().enumerate().map(|(k, &r)| {
+                let shifted = shift.map_or(0.0, |s| (i..q).map(|c| row[c] * s[[c, k]]).sum());
+                row[q + r] - shifted
+            }));
+        }
+        let kept = rhs.len() / m;
+        let shape = |cols: usize, what: &'static str, len: usize| Error::Shape {
+            what,
+            expected: kept * cols,
+            got: len,
+        };
+        let design_view = ArrayView2::from_shape((kept, p), &design)
+            .map_err(|_| shape(p, "mapped rows", design.len()))?;
+        let rhs_view = ArrayView2::from_shape((kept, m), &rhs)
+            .map_err(|_| shape(m, "mapped responses", rhs.len()))?;
+        let (rows_before, seen_before) = (self.n_rows, self.rows_seen);
+        self.push_multi(design_view, rhs_view, None)?;
+        self.n_rows = rows_before + source.n_rows;
+        self.rows_seen = seen_before + source.rows_seen;
+        for (acc, &r) in self.rss.iter_mut().zip(responses) {
+            *acc += source.rss[r];
+        }
+        Ok(())
+    }
+
     /// Rows with non-zero weight pushed so far.
     pub fn n_rows(&self) -> u64 {
         self.n_rows

@@ -1127,3 +1127,182 @@ fn several_responses_check_shapes_and_values() {
         Err(Error::Incompatible { .. })
     ));
 }
+
+// ------------------------------------------------------------- push_mapped
+
+/// One stretch of a mapped problem: its basis `b` (n, q), three responses (n, 3),
+/// weights (every fifth 0), a map (q, p) and a shift (q).
+struct Stretch {
+    b: Array2<f64>,
+    y: Array2<f64>,
+    w: Vec<f64>,
+    map: Array2<f64>,
+    shift: Vec<f64>,
+}
+
+fn stretch(n: usize, q: usize, p: usize, rng: &mut Rng) -> Stretch {
+    let b = Array2::from_shape_fn((n, q), |_| rng.normal());
+    let y = Array2::from_shape_fn((n, 3), |_| rng.normal());
+    let w = (0..n)
+        .map(|i| if i % 5 == 0 { 0.0 } else { 0.5 + rng.uniform() })
+        .collect();
+    let map = Array2::from_shape_fn((q, p), |_| rng.normal());
+    let shift = (0..q).map(|_| rng.normal()).collect();
+    Stretch {
+        b,
+        y,
+        w,
+        map,
+        shift,
+    }
+}
+
+/// The same problem two ways: the stretches' rows `b · map` with the response
+/// `y_r - b · shift` pushed directly, and each stretch's `[b | y]` factored then
+/// pushed through its map.
+fn mapped_and_direct(parts: &[Stretch], r: usize, shifted: bool) -> (LeastSquares, LeastSquares) {
+    let p = parts[0].map.ncols();
+    let mut direct = LeastSquares::new(p, None).unwrap();
+    let mut mapped = LeastSquares::new(p, None).unwrap();
+    for s in parts {
+        let q = s.b.ncols();
+        let x = s.b.dot(&s.map);
+        let shift = ndarray::Array1::from(s.shift.clone());
+        let mut y = s.y.column(r).to_owned();
+        if shifted {
+            y = y - s.b.dot(&shift);
+        }
+        direct
+            .push(x.view(), y.as_slice().unwrap(), Some(&s.w))
+            .unwrap();
+        let mut basis = LeastSquares::with_responses(q, 3, None).unwrap();
+        basis
+            .push_multi(s.b.view(), s.y.view(), Some(&s.w))
+            .unwrap();
+        let shift2 = shift.into_shape_with_order((q, 1)).unwrap();
+        mapped
+            .push_mapped(&basis, s.map.view(), &[r], shifted.then(|| shift2.view()))
+            .unwrap();
+    }
+    (mapped, direct)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 128,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    /// Pushing each stretch's factor through its map equals pushing the mapped
+    /// rows: the same triangle up to rounding, the same counts.
+    #[test]
+    fn push_mapped_equals_direct(
+        q in 1_usize..6,
+        p in 1_usize..9,
+        stretches in 1_usize..5,
+        extra in 0_usize..40,
+        r in 0_usize..3,
+        shifted in any::<bool>(),
+        seed in any::<u64>(),
+    ) {
+        let mut rng = Rng(seed | 1);
+        let parts: Vec<Stretch> = (0..stretches)
+            .map(|_| stretch(2 * q + 3 + extra, q, p, &mut rng))
+            .collect();
+        let (mapped, direct) = mapped_and_direct(&parts, r, shifted);
+        prop_assert_eq!(mapped.n_rows(), direct.n_rows());
+        if p > q * stretches {
+            // The columns b · map of a stretch span at most q directions.
+            let rank_deficient = |r: Result<LstsqSolution, Error>| {
+                matches!(r, Err(Error::RankDeficient { .. }))
+            };
+            prop_assert!(rank_deficient(direct.finish()));
+            prop_assert!(rank_deficient(mapped.finish()));
+            return Ok(());
+        }
+        let b = direct.finish().unwrap();
+        // Random Gaussian stretches are of full rank; a badly conditioned draw is
+        // left out (the bound below grows with the condition number).
+        prop_assume!(b.condition_number_scaled < 1e6);
+        let a = mapped.finish().unwrap();
+        let w: Vec<f64> = parts.iter().flat_map(|s| s.w.iter().copied()).collect();
+        let x: Vec<Array2<f64>> = parts.iter().map(|s| s.b.dot(&s.map)).collect();
+        let views: Vec<ArrayView2<'_, f64>> = x.iter().map(|a| a.view()).collect();
+        let mut weighted = ndarray::concatenate(Axis(0), &views).unwrap();
+        for (mut row, wi) in weighted.rows_mut().into_iter().zip(&w) {
+            row *= wi.sqrt();
+        }
+        // Two QRs in a row (the stretch's, then the mapped rows'): each backward
+        // stable, so the bound of one, with room for both.
+        assert_fits_close(&a, &b, &column_norms(&weighted), 256.0);
+    }
+}
+
+#[test]
+fn push_mapped_names_the_columns_it_cannot_identify() {
+    // Two gain terms of one basis, the second never seeing gravity: a zero column.
+    let mut rng = Rng(11);
+    let mut s = stretch(40, 2, 3, &mut rng);
+    s.map.column_mut(2).fill(0.0);
+    let mut basis = LeastSquares::with_responses(2, 3, None).unwrap();
+    basis
+        .push_multi(s.b.view(), s.y.view(), Some(&s.w))
+        .unwrap();
+    let mut mapped = LeastSquares::new(3, names(&["offset", "gain", "never"])).unwrap();
+    mapped
+        .push_mapped(&basis, s.map.view(), &[1], None)
+        .unwrap();
+    match mapped.finish() {
+        Err(Error::RankDeficient { columns }) => assert_eq!(columns, vec!["never".to_string()]),
+        other => panic!("expected a rank error, got {other:?}"),
+    }
+}
+
+#[test]
+fn push_mapped_of_an_empty_source_adds_nothing() {
+    let basis = LeastSquares::with_responses(3, 2, None).unwrap();
+    let mut mapped = LeastSquares::new(2, None).unwrap();
+    let map = Array2::from_elem((3, 2), 1.0);
+    mapped.push_mapped(&basis, map.view(), &[0], None).unwrap();
+    assert_eq!(mapped.n_rows(), 0);
+    assert!(matches!(mapped.finish(), Err(Error::Empty { .. })));
+}
+
+#[test]
+fn push_mapped_rejects_bad_shapes_and_values() {
+    let mut rng = Rng(3);
+    let s = stretch(20, 2, 3, &mut rng);
+    let mut basis = LeastSquares::with_responses(2, 3, None).unwrap();
+    basis.push_multi(s.b.view(), s.y.view(), None).unwrap();
+    let mut mapped = LeastSquares::new(3, None).unwrap();
+    let wrong = Array2::zeros((3, 3));
+    assert!(matches!(
+        mapped.push_mapped(&basis, wrong.view(), &[0], None),
+        Err(Error::Shape { .. })
+    ));
+    assert!(matches!(
+        mapped.push_mapped(&basis, s.map.view(), &[0, 1], None),
+        Err(Error::Shape { .. })
+    ));
+    assert!(matches!(
+        mapped.push_mapped(&basis, s.map.view(), &[3], None),
+        Err(Error::InvalidParameter {
+            name: "responses",
+            ..
+        })
+    ));
+    let mut bad = s.map.clone();
+    bad[[1, 2]] = f64::NAN;
+    assert!(matches!(
+        mapped.push_mapped(&basis, bad.view(), &[0], None),
+        Err(Error::InvalidParameter { name: "map", .. })
+    ));
+    let short_shift = Array2::zeros((1, 1));
+    assert!(matches!(
+        mapped.push_mapped(&basis, s.map.view(), &[0], Some(short_shift.view())),
+        Err(Error::Shape { .. })
+    ));
+    // Nothing was pushed by the failed calls.
+    assert_eq!(mapped.n_rows(), 0);
+}

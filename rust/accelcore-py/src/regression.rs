@@ -59,14 +59,17 @@ impl PyLstsqSolution {
 #[pymethods]
 impl PyLeastSquares {
     #[new]
-    #[pyo3(signature = (n_columns, *, column_names = None))]
-    fn new(n_columns: i64, column_names: Option<Vec<String>>) -> PyResult<Self> {
+    #[pyo3(signature = (n_columns, *, column_names = None, n_responses = 1))]
+    fn new(n_columns: i64, column_names: Option<Vec<String>>, n_responses: i64) -> PyResult<Self> {
         let n_columns = count("n_columns", n_columns)?;
-        let inner = LeastSquares::new(n_columns, column_names).map_err(crate::errors::CoreError)?;
+        let n_responses = count("n_responses", n_responses)?;
+        let inner = LeastSquares::with_responses(n_columns, n_responses, column_names)
+            .map_err(crate::errors::CoreError)?;
         Ok(Self { inner })
     }
 
-    /// Push rows of the design with their responses and optional weights.
+    /// Push rows of the design with their responses, (n) or, with several,
+    /// (n, n_responses), and optional weights.
     #[pyo3(signature = (design, response, weights = None))]
     fn push(
         &mut self,
@@ -76,15 +79,49 @@ impl PyLeastSquares {
         weights: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<()> {
         let design = array2(design, "design dimensions")?;
-        let response = array1(response, "response dimensions")?;
         let weights = weights
             .map(|w| array1(w, "weights dimensions"))
             .transpose()?;
-        let response = slice_or_copy(&response);
         let weights = weights.as_ref().map(slice_or_copy);
         let design = design.as_array();
         let inner = &mut self.inner;
+        if inner.n_responses() > 1 {
+            // (n, n_responses); with one response, (n) only.
+            let responses = array2(response, "response dimensions")?;
+            let responses = responses.as_array();
+            return run_detached(py, || {
+                inner.push_multi(design, responses, weights.as_deref())
+            });
+        }
+        let response = array1(response, "response dimensions")?;
+        let response = slice_or_copy(&response);
         run_detached(py, || inner.push(design, &response, weights.as_deref()))
+    }
+
+    /// Push the rows of `source` through a map of its columns (see the stubs).
+    #[pyo3(signature = (source, map, responses = None, shift = None))]
+    fn push_mapped(
+        &mut self,
+        py: Python<'_>,
+        source: PyRef<'_, PyLeastSquares>,
+        map: &Bound<'_, PyAny>,
+        responses: Option<Vec<i64>>,
+        shift: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let map = array2(map, "map dimensions")?;
+        let shift = shift.map(|s| array2(s, "shift dimensions")).transpose()?;
+        let responses = match responses {
+            None => (0..self.inner.n_responses()).collect(),
+            Some(list) => list
+                .into_iter()
+                .map(|r| count("responses", r))
+                .collect::<PyResult<Vec<usize>>>()?,
+        };
+        let map = map.as_array();
+        let shift = shift.as_ref().map(|s| s.as_array());
+        let source = &source.inner;
+        let inner = &mut self.inner;
+        run_detached(py, || inner.push_mapped(source, map, &responses, shift))
     }
 
     /// Merge another problem with the same columns.
@@ -94,10 +131,12 @@ impl PyLeastSquares {
         run_detached(py, || inner.merge(&other))
     }
 
-    /// Solve.
-    fn finish(&self, py: Python<'_>) -> PyResult<PyLstsqSolution> {
+    /// Solve (for response `response` of several).
+    #[pyo3(signature = (response = 0))]
+    fn finish(&self, py: Python<'_>, response: i64) -> PyResult<PyLstsqSolution> {
+        let response = count("response", response)?;
         let inner = &self.inner;
-        let solution = run_detached(py, || inner.finish())?;
+        let solution = run_detached(py, || inner.finish_response(response))?;
         solution_to_py(py, solution)
     }
 
@@ -109,6 +148,11 @@ impl PyLeastSquares {
     #[getter]
     fn n_rows(&self) -> u64 {
         self.inner.n_rows()
+    }
+
+    #[getter]
+    fn n_responses(&self) -> usize {
+        self.inner.n_responses()
     }
 
     fn __repr__(&self) -> String {
