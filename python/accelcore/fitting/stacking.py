@@ -102,8 +102,12 @@ def stack_session(
             notes.append(note)
         feats.append(CutFeatures.cut(whole, keep))
         grav.append(run.gravity_g)
-        out.append(run.output[keep])
-        wts.append(weight[keep])
+        if keep.all():  # the whole run (the usual case): no copy
+            out.append(run.output)
+            wts.append(weight)
+        else:
+            out.append(run.output[keep])
+            wts.append(weight[keep])
         idx.append(i)
     if not feats:
         lo, hi = window_c if window_c else (-math.inf, math.inf)
