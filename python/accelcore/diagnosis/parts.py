@@ -12,7 +12,7 @@ Imports: NumPy, the model's features and the calibration's cut features and weig
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -49,6 +49,9 @@ class Parts:
         Each record's time since its start (s) and temperature (°C), whole.
     gather : list of ndarray of int64
         Where each part's samples sit in the records' samples end to end.
+    leg_s : dict
+        Duration of each heating or cooling leg of a record, whole (not cut to the
+        window), ``(record, leg)`` -> s.
     """
 
     features: list[Features]
@@ -61,6 +64,7 @@ class Parts:
     rate_c_per_min: list[FloatArray]
     wholes: list[tuple[FloatArray, FloatArray]]
     gather: list[NDArray[np.int64]]
+    leg_s: dict[tuple[int, int], float] = field(default_factory=dict)
 
 
 def cut_parts(
@@ -95,6 +99,9 @@ def cut_parts(
         # Same weights as the calibration: spikes and clipped blocks left out.
         weight, _ = block_weights(run, robust=bool(base.options.get("robust", True)))
         for leg in range(len(kinds)):
+            if kinds[leg] != "steady":
+                on_leg = run.time_s[legs == leg]
+                out.leg_s[(i, leg)] = float(on_leg[-1] - on_leg[0])
             keep = inside & (legs == leg)
             if np.count_nonzero(keep) < 2:
                 continue

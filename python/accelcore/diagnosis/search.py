@@ -39,6 +39,7 @@ from .structure import MIN_TEMPERATURE_SPAN_C, temperature_span_c
 __all__ = [
     "confounding",
     "cross_sources",
+    "lag_range_s",
     "profile_se",
     "search_1d",
     "search_many",
@@ -60,6 +61,34 @@ TAU_TOL = 5e-3
 
 #: Family name of the warm-up (a session event).
 WARM_UP = "event: warm-up"
+
+
+#: Search range of a lag's time constant when none is given, s (the upper end then
+#: capped by :func:`lag_range_s`).
+TAU_RANGE_S = (5.0, 3600.0)
+
+#: A lag's time constant is searched up to this share of the session's shortest
+#: heating or cooling leg.
+LAG_LEG_SHARE = 0.5
+
+
+def lag_range_s(eng: Engine, range_s: tuple[float, float] = TAU_RANGE_S) -> tuple[float, float]:
+    """Return ``range_s`` with its upper end at most half the shortest heating or cooling leg.
+
+    A time constant is told from a lag by the transient each leg starts with and the
+    steady lag it settles to. Up to half a leg, the lagged temperature settles to
+    ``1 - exp(-2)`` = 86 % of its steady lag inside every leg; a longer one settles in
+    none, and what its column fits is each leg's memory of where it started, which
+    another temperature profile does not repeat (an offset that shifts once the die
+    passed 50 °C, a die that heats faster than it cools: a "lag" of 1000-2000 s fitted
+    those and raised the error on an independent session 1.9x and 1.7x). Without a
+    heating or cooling leg (a steady session), ``range_s`` as it is.
+    """
+    lo, hi = range_s
+    if not eng.leg_s:
+        return range_s
+    cap = LAG_LEG_SHARE * min(eng.leg_s.values())
+    return lo, max(lo, min(hi, cap))
 
 
 def warm_up_range_s(eng: Engine) -> tuple[float, float]:

@@ -367,7 +367,7 @@ def diagnose(
     alpha: float = 0.01,
     block_s: float = 300.0,
     max_order: int = 5,
-    tau_range_s: tuple[float, float] = (5.0, 3600.0),
+    tau_range_s: tuple[float, float] | None = None,
     families: Sequence[str] = FAMILIES,
     extras: Sequence[str] | None = None,
     confound_r: float = 0.95,
@@ -405,8 +405,11 @@ def diagnose(
         Length of the blocks of the paired test, s.
     max_order : int, default 5
         Highest order of the curvature families.
-    tau_range_s : (float, float), default (5, 3600)
-        Search range of the lag time constant, s.
+    tau_range_s : (float, float), optional
+        Search range of the lag time constant, s. Default: from 5 s to half the
+        session's shortest heating or cooling leg, at most 3600 s
+        (:func:`accelcore.diagnosis.search.lag_range_s`: a longer one never settles
+        inside a leg and fits the profile, not the part).
     families : sequence of str, default :data:`FAMILIES`
         Families of the catalogue to try.
     extras : sequence of str, optional
@@ -477,6 +480,8 @@ def diagnose(
     skip = {f.split(":", 1)[1] for f in explained(quality or ()) if f.startswith("smooth:")}
     if span < MIN_TEMPERATURE_SPAN_C:
         skip |= set(TEMPERATURE_OBSERVABLES)
+    if tau_range_s is None:
+        tau_range_s = search.lag_range_s(eng)
     rules = _Rules(
         tried,
         extras_used,
