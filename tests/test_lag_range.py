@@ -71,6 +71,14 @@ def test_the_range_ends_at_half_the_shortest_leg() -> None:
     assert lag_range_s(short) == (5.0, 5.0)
 
 
+def test_a_run_cut_short_does_not_take_the_lag_away() -> None:
+    # A 4-minute record's one leg: below the shortest leg a longer record holds.
+    eng = _engine_with_legs({(0, 0): 2100.0, (0, 1): 1500.0, (1, 0): 240.0})
+    assert lag_range_s(eng) == (TAU_RANGE_S[0], 750.0)
+    # Only short records: their legs are all there is.
+    assert lag_range_s(_engine_with_legs({(0, 0): 240.0, (1, 0): 200.0})) == (5.0, 100.0)
+
+
 def test_a_steady_session_keeps_the_whole_range() -> None:
     assert lag_range_s(_engine_with_legs({})) == TAU_RANGE_S
 

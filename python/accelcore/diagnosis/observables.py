@@ -19,7 +19,7 @@ from accelcore.input.records import records
 from accelcore.input.session import Session
 from accelcore.result.calibration import Calibration
 
-__all__ = ["STEADY_C_PER_MIN", "leg_labels", "rate_c_per_min", "residuals"]
+__all__ = ["MIN_LEG_S", "STEADY_C_PER_MIN", "leg_labels", "rate_c_per_min", "residuals"]
 
 FloatArray = NDArray[np.float64]
 
@@ -65,12 +65,16 @@ def _branch_sign(rate: FloatArray, steady_c_per_min: float) -> NDArray[np.int64]
     )
 
 
+#: Legs shorter than this join a neighbour (:func:`leg_labels`), s.
+MIN_LEG_S = 300.0
+
+
 def leg_labels(
     time_s: FloatArray,
     temperature_c: FloatArray,
     *,
     steady_c_per_min: float = STEADY_C_PER_MIN,
-    min_leg_s: float = 300.0,
+    min_leg_s: float = MIN_LEG_S,
     rate: FloatArray | None = None,
 ) -> tuple[NDArray[np.int64], list[str]]:
     """Split a run into monotonic legs of its temperature cycle.

@@ -33,6 +33,7 @@ from accelcore.model import (
 
 from .engine import CV, Engine
 from .generic import generic_variants
+from .observables import MIN_LEG_S
 from .space import Spec, with_tau
 from .structure import MIN_TEMPERATURE_SPAN_C, temperature_span_c
 
@@ -82,12 +83,16 @@ def lag_range_s(eng: Engine, range_s: tuple[float, float] = TAU_RANGE_S) -> tupl
     another temperature profile does not repeat (an offset that shifts once the die
     passed 50 °C, a die that heats faster than it cools: a "lag" of 1000-2000 s fitted
     those and raised the error on an independent session 1.9x and 1.7x). Without a
-    heating or cooling leg (a steady session), ``range_s`` as it is.
+    heating or cooling leg (a steady session), ``range_s`` as it is. Legs shorter than
+    :data:`MIN_LEG_S` (only a record that short holds one: shorter legs join a
+    neighbour) do not count while a longer one exists: a run cut short does not take
+    the lag away from the others.
     """
     lo, hi = range_s
     if not eng.leg_s:
         return range_s
-    cap = LAG_LEG_SHARE * min(eng.leg_s.values())
+    legs = [s for s in eng.leg_s.values() if s >= MIN_LEG_S] or list(eng.leg_s.values())
+    cap = LAG_LEG_SHARE * min(legs)
     return lo, max(lo, min(hi, cap))
 
 
