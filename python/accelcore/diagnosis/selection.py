@@ -47,7 +47,14 @@ from .inside import alike
 from .observables import STEADY_C_PER_MIN
 from .parameters import added_parameters, fit_models
 from .result import Diagnosis, Step
-from .scope import QUALITY_EXPLAINS, check_options, explained, not_explained_by
+from .scope import (
+    QUALITY_EXPLAINS,
+    check_options,
+    explained,
+    found_in,
+    not_explained_by,
+    without_findings,
+)
 from .search import confounding, variants
 from .space import FAMILIES, Spec, is_event, with_tau
 from .stats import wrms
@@ -63,6 +70,9 @@ __all__ = ["QUALITY_EXPLAINS", "diagnose"]
 
 #: Most times the selection starts again without families made redundant by later ones.
 MAX_RESTARTS = 2
+
+#: Arguments of :func:`diagnose` that are not options of the method.
+_NOT_OPTIONS = frozenset({"session", "calibration", "quality"})
 
 
 @dataclass(frozen=True)
@@ -439,6 +449,8 @@ def diagnose(
     -----
     Never emits Python warnings; caveats are in :attr:`Diagnosis.warnings`.
     """
+    # The options as given (the session's own and its findings aside), to diagnose again.
+    options_given = {k: v for k, v in locals().items() if k not in _NOT_OPTIONS}
     check_options(families, max_steps, min_improvement, alpha)
     base, specs, notes = starting_point(session, calibration, t_ref_c, window_c)
     checked = None
@@ -475,9 +487,17 @@ def diagnose(
         )
     if checked is not None:
         quality = checked.result()
-    tried, skipped = not_explained_by(tried, quality or ())
+    # What a finding could explain, tried when the runs it is not about show it too.
+    probe, cleared = without_findings(session, quality or ()), list[str]()
+    if probe is not None:
+        cleared = found_in(diagnose(probe, **options_given, quality=()).effects)
+    tried, skipped = not_explained_by(tried, quality or (), cleared)
     warn += skipped
-    skip = {f.split(":", 1)[1] for f in explained(quality or ()) if f.startswith("smooth:")}
+    skip = {
+        f.split(":", 1)[1]
+        for f in explained(quality or ())
+        if f.startswith("smooth:") and f not in cleared
+    }
     if span < MIN_TEMPERATURE_SPAN_C:
         skip |= set(TEMPERATURE_OBSERVABLES)
     if tau_range_s is None:
@@ -522,21 +542,12 @@ def diagnose(
         eng, resid, n_bins=n_bins, alpha=alpha_structure, min_structure_mg=min_structure_mg
     )
     options: dict[str, Any] = {
-        "max_steps": max_steps,
+        **{k: v for k, v in options_given.items() if k != "steady_c_per_min"},
         "t_ref_c": base.t_ref_c,
         "window_c": list(base.window_c),
-        "folds": folds,
-        "min_improvement": min_improvement,
-        "alpha": alpha,
-        "block_s": block_s,
-        "max_order": max_order,
         "tau_range_s": list(tau_range_s),
         "families": list(families),
         "extras": extras_used,
-        "confound_r": confound_r,
-        "n_bins": n_bins,
-        "alpha_structure": alpha_structure,
-        "min_structure_mg": min_structure_mg,
     }
     return Diagnosis(
         base=base,
