@@ -35,12 +35,13 @@ from numpy.typing import NDArray
 
 from accelcore.input.medians import median_of_finite
 from accelcore.model import AXES, Constant, RunStep, Term
+from accelcore.result.calibration import AxisModel
 
 from .engine import Engine
-from .space import EVENT_PREFIX, Spec
+from .space import EVENT_PREFIX, Spec, is_event
 from .stats import chi2_sf, corrected_p, t_sf
 
-__all__ = ["find_run_events"]
+__all__ = ["event_corrections", "find_run_events"]
 
 FloatArray = NDArray[np.float64]
 
@@ -158,6 +159,24 @@ def find_run_events(
         specs[axis] = spec
         lines.append(f"{effect} on {axis}")
     return specs, lines, notes
+
+
+def event_corrections(eng: Engine, models: Mapping[str, AxisModel]) -> list[FloatArray]:
+    """Return what the fitted session events add to each part's output (n, 3), mg.
+
+    Every event's term of ``models`` (a step or a run's level: a :class:`RunStep`)
+    evaluated on the part's samples, times its coefficient.
+    """
+    out = []
+    for f in eng.data.features:
+        c = np.zeros((len(f), len(AXES)))
+        for i, a in enumerate(AXES):
+            m = models[a]
+            for t, coef in zip(m.terms, m.coefficients, strict=True):
+                if is_event(t.effect) and isinstance(t.basis, RunStep) and coef != 0.0:
+                    c[:, i] += coef * t.basis.evaluate(f)
+        out.append(c)
+    return out
 
 
 def _best_level(

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from accelcore.fitting.calibrate import fit_axis
-from accelcore.fitting.reduced import MAX_FUNCTIONS, Reduced, functions_of
+from accelcore.fitting.reduced import functions_of, shared
 from accelcore.model import (
     AXES,
     Basis,
@@ -138,10 +138,10 @@ def fit_models(
     chosen = {a: tuple(specs[a].terms(a)) for a in axes}
     # One QR per stretch of the functions the axes' models use, for the three axes
     # (accelcore.fitting.reduced), kept for the models asked for again.
-    functions = functions_of([t for a in axes for t in chosen[a]])
+    used = [t for a in axes for t in chosen[a]]
     reduced = (
-        eng.kept("_reduced", functions, lambda: Reduced.of(eng.data, functions, eng.references), 8)
-        if len(functions) <= MAX_FUNCTIONS and any((a, chosen[a]) not in eng.fitted for a in axes)
+        eng.kept("_reduced", functions_of(used), lambda: shared(eng.data, used, eng.references), 8)
+        if any((a, chosen[a]) not in eng.fitted for a in axes)
         else None
     )
     for a in axes:

@@ -41,7 +41,7 @@ from . import search
 from .between import cross_left_out
 from .ends import improved_calibration, starting_point, usable_extras
 from .engine import Engine
-from .events import find_run_events
+from .events import event_corrections, find_run_events
 from .generic import LINE, TEMPERATURE_OBSERVABLES, generic_variants
 from .inside import alike
 from .observables import STEADY_C_PER_MIN
@@ -582,16 +582,7 @@ def _again_with_events(
     offset between folds.) The events' figures stay those of the first fit.
     """
     models, _, _ = fit_models(eng, first.specs)
-    corrections = []
-    for f in eng.data.features:
-        c = np.zeros((len(f), len(AXES)))
-        for i, a in enumerate(AXES):
-            m = models[a]
-            for t, coef in zip(m.terms, m.coefficients, strict=True):
-                if is_event(t.effect) and isinstance(t.basis, RunStep) and coef != 0.0:
-                    c[:, i] += coef * t.basis.evaluate(f)
-        corrections.append(c)
-    again_eng = eng.less(corrections)
+    again_eng = eng.less(event_corrections(eng, models))
     again = _Selection(again_eng, dict(start), rules)
     again.run(max_steps)
     again.session_events = first.session_events

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 from accelcore import core
 from accelcore._accelcore import __version__
 from accelcore.errors import InsufficientDataError, ParameterError, SingularSystemError
-from accelcore.fitting.reduced import MAX_FUNCTIONS, Reduced, functions_of
+from accelcore.fitting.reduced import Reduced, functions_of, shared
 from accelcore.fitting.stacking import CutFeatures, Stacked, block_weights, stack_session
 from accelcore.input.session import Session
 from accelcore.model import (
@@ -255,9 +255,8 @@ def _fit_joint(
     axes: dict[str, AxisModel] = {}
     not_identified: list[str] = []
     notes: list[str] = list(data.notes)
-    shared = functions_of([t for a in AXES for t in terms[a]])
-    # One QR per stretch for the three axes (each axis' own when they need too many).
-    reduced = Reduced.of(data, shared, refs) if len(shared) <= MAX_FUNCTIONS else None
+    # One QR per stretch for the three axes.
+    reduced = shared(data, [t for a in AXES for t in terms[a]], refs)
     for i, a in enumerate(AXES):
         model, fixed, axis_notes = fit_axis(
             a, terms[a], data, None if nominal is None else nominal[i], refs, reduced=reduced

@@ -15,6 +15,7 @@ normal equations.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -26,7 +27,7 @@ from accelcore.fitting.stacking import Stacked
 from accelcore.model import AXES, Constant, Term
 from accelcore.model.bases import Basis
 
-__all__ = ["MAX_FUNCTIONS", "Reduced", "functions_of"]
+__all__ = ["MAX_FUNCTIONS", "Reduced", "functions_of", "shared"]
 
 #: Largest number of distinct functions reduced together (the core's column limit).
 MAX_FUNCTIONS = 64
@@ -79,17 +80,21 @@ class Reduced:
             sums.append(np.einsum("i,ij,ij->j", w, b, b))
         return cls(functions, factors, sums)
 
+    @functools.cached_property
+    def _index(self) -> dict[Basis, int]:
+        """Row of each function in a map."""
+        return {f: k for k, f in enumerate(self.functions)}
+
     def covers(self, terms: Sequence[Term]) -> bool:
         """Whether every function of ``terms`` is among :attr:`functions`."""
-        have = set(self.functions)
-        return all(f in have for f in functions_of(terms))
+        return all(f in self._index for f in functions_of(terms))
 
     def map(self, terms: Sequence[Term], gravity_g: NDArray[np.float64]) -> NDArray[np.float64]:
         """``M`` of one stretch: its design is ``B · M`` (``len(functions)`` × ``len(terms)``).
 
         ``gravity_g`` is the stretch's (3,) gravity in g.
         """
-        index = {f: k for k, f in enumerate(self.functions)}
+        index = self._index
         m = np.zeros((len(self.functions), len(terms)))
         for j, t in enumerate(terms):
             if t.basis.needs_gravity:
@@ -98,3 +103,12 @@ class Reduced:
                 row, value = index[t.basis], 1.0
             m[row, j] = float(t.column(np.array([value]), gravity_g)[0])
         return m
+
+
+def shared(data: Stacked, terms: Sequence[Term], references: Mapping[str, float]) -> Reduced | None:
+    """Reduce ``data`` once for several axes' ``terms``, or None if the functions are too many.
+
+    With more than :data:`MAX_FUNCTIONS` functions, each axis' fit reduces its own.
+    """
+    functions = functions_of(terms)
+    return Reduced.of(data, functions, references) if len(functions) <= MAX_FUNCTIONS else None

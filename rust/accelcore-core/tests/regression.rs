@@ -110,6 +110,16 @@ fn assert_fits_close(a: &LstsqSolution, b: &LstsqSolution, norms: &[f64], factor
     assert_eq!(a.dof, b.dof);
 }
 
+/// The property tests' configuration: 128 cases; integration tests have no lib.rs
+/// next to them to persist failures beside.
+fn config() -> ProptestConfig {
+    ProptestConfig {
+        cases: 128,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    }
+}
+
 // ------------------------------------------------- double-double reference
 
 /// Unevaluated sum hi + lo, ~106-bit precision.
@@ -496,12 +506,7 @@ fn strided_design_equals_contiguous() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 128,
-        // Integration tests have no lib.rs next to them to persist failures beside.
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(config())]
 
     /// Any chunking (empty chunks included) gives bitwise the same result.
     #[test]
@@ -1188,11 +1193,7 @@ fn mapped_and_direct(parts: &[Stretch], r: usize, shifted: bool) -> (LeastSquare
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig {
-        cases: 128,
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    })]
+    #![proptest_config(config())]
 
     /// Pushing each stretch's factor through its map equals pushing the mapped
     /// rows: the same triangle up to rounding, the same counts.
