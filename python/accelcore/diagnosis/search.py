@@ -69,21 +69,22 @@ WARM_UP = "event: warm-up"
 TAU_RANGE_S = (5.0, 3600.0)
 
 #: A lag's time constant is searched up to this share of the session's shortest
-#: heating or cooling leg.
-LAG_LEG_SHARE = 0.5
+#: heating or cooling leg (three time constants: 95 % settled inside every leg).
+LAG_LEG_SHARE = 1.0 / 3.0
 
 
 def lag_range_s(eng: Engine, range_s: tuple[float, float] = TAU_RANGE_S) -> tuple[float, float]:
-    """Return ``range_s`` with its upper end at most half the shortest heating or cooling leg.
+    """Return ``range_s`` ending at most at a third of the shortest heating or cooling leg.
 
     A time constant is told from a lag by the transient each leg starts with and the
-    steady lag it settles to. Up to half a leg, the lagged temperature settles to
-    ``1 - exp(-2)`` = 86 % of its steady lag inside every leg; a longer one settles in
-    none, and what its column fits is each leg's memory of where it started, which
-    another temperature profile does not repeat (an offset that shifts once the die
-    passed 50 °C, a die that heats faster than it cools: a "lag" of 1000-2000 s fitted
-    those and raised the error on an independent session 1.9x and 1.7x). Without a
-    heating or cooling leg (a steady session), ``range_s`` as it is. Legs shorter than
+    steady lag it settles to. Up to a third of a leg, the lagged temperature settles to
+    ``1 - exp(-3)`` = 95 % of its steady lag inside every leg; a longer one settles less
+    and less, and what its column fits is more and more each leg's memory of where it
+    started, which another temperature profile does not repeat (an offset that shifts
+    once the die passed 50 °C, a die that heats faster than it cools: a "lag" of
+    1000-2000 s fitted those and raised the error on an independent session 1.9x and
+    1.7x; up to half a leg, the second still 1.17x on one seed). Without a heating or
+    cooling leg (a steady session), ``range_s`` as it is. Legs shorter than
     :data:`MIN_LEG_S` (only a record that short holds one: shorter legs join a
     neighbour) do not count while a longer one exists: a run cut short does not take
     the lag away from the others.
