@@ -151,13 +151,29 @@ def find_run_events(
             specs[a] = replace(specs[a], events=(*specs[a].events, term))
         lines.append(term.effect)
     # Run levels on the axes that read 0 g in the run, greedily.
+    before = dict(specs)
+    levels: dict[str, list[str]] = {a: [] for a in AXES}
     for _ in range(MAX_EVENTS - len(lines)):
         found = _best_level(eng, specs, runs, labels, alpha)
         if found is None:
             break
         axis, spec, effect = found
         specs[axis] = spec
-        lines.append(f"{effect} on {axis}")
+        levels[axis].append(f"{effect} on {axis}")
+    for a in AXES:
+        zero_g = sum(abs(eng.gravity[idx[0], AXES.index(a)]) < 0.5 for idx in runs)
+        if levels[a] and 2 * len(levels[a]) >= zero_g >= 2:
+            # As for steps: levels off in half the runs or more are this axis' scatter
+            # from run to run (a turn-on offset, a logged temperature off by run), which
+            # its offset averages over; as events they would leave it to the runs left.
+            notes.append(
+                f"levels off in {len(levels[a])} of {zero_g} zero-g runs of {a}: not treated "
+                "as session events (the axis' scatter from run to run, which its offset "
+                "averages over)"
+            )
+            specs[a] = before[a]
+            levels[a] = []
+        lines += levels[a]
     return specs, lines, notes
 
 
