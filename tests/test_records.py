@@ -57,10 +57,35 @@ def test_contiguous_pieces_join_into_the_whole_log() -> None:
 )
 def test_pieces_that_are_not_one_log_stay_apart(first: str, second: str, why: str) -> None:
     a = _log(1000.0, 2000, 2)
+    # A clock that restarts: the second file's times run over the first's (0-1249.5 s
+    # against 1000-1999.5 s), whichever is listed first.
     t0 = {"a clock that restarts": 0.0, "a pause of an hour": 1000.0 + 1000.0 + 3600.0}
-    b = _log(t0.get(why, 1000.0 + 1000.0), 2000, 3)
+    b = _log(t0.get(why, 1000.0 + 1000.0), 2500, 3)
     runs = records(_session([(first, a), (second, b)]))
     assert len(runs) == 2, why
+
+
+def test_pieces_listed_out_of_time_order_join_in_time_order() -> None:
+    """The session's order of the files is not the log's: pieces listed last-first, or
+    shuffled among other runs, are joined in time order (they were records of their own,
+    and a lag's state, the legs and the folds restarted at every file)."""
+    log = _log(1000.0, 4000, 5)
+    whole = _session([("OZ+", log)])
+    pieces = [{c: v[s:e] for c, v in log.items()} for s, e in ((0, 900), (900, 2500), (2500, 4000))]
+    other = _log(1000.0, 500, 6)
+    cut = _session([("OZ+", pieces[2]), ("OX+", other), ("OZ+", pieces[0]), ("OZ+", pieces[1])])
+    joined = records(cut)
+    assert [r.orientation for r in joined] == ["OZ+", "OX+"]  # first-listed piece first
+    np.testing.assert_array_equal(joined[0].time_s, whole.runs[0].time_s)
+    np.testing.assert_array_equal(joined[0].output, whole.runs[0].output)
+
+
+def test_a_piece_of_one_block_joins_its_neighbours() -> None:
+    """One block has no spacing of its own: the session's decides (it was 0: no join)."""
+    log = _log(1000.0, 3000, 7)
+    pieces = [{c: v[s:e] for c, v in log.items()} for s, e in ((0, 1), (1, 2), (2, 3000))]
+    (joined,) = records(_session([("OZ+", p) for p in pieces]))
+    np.testing.assert_array_equal(joined.time_s, _session([("OZ+", log)]).runs[0].time_s)
 
 
 def test_a_lagged_model_is_the_same_whichever_way_the_log_was_cut() -> None:

@@ -32,14 +32,22 @@ def _interval_s(run: Run) -> float:
     return float(np.median(np.diff(run.time_s)))
 
 
-def _continues(prev: Run, nxt: Run) -> bool:
+def _continues(prev: Run, nxt: Run, typical_s: float) -> bool:
+    """Tell whether ``nxt`` continues ``prev``; ``typical_s``: the session's block interval."""
     if prev.orientation != nxt.orientation or len(prev) == 0 or len(nxt) == 0:
         return False
     if set(prev.extras) != set(nxt.extras):
         return False
     gap = float(nxt.time_s[0] - prev.time_s[-1])
-    limit = CONTIGUOUS_BLOCKS * max(_interval_s(prev), _interval_s(nxt))
+    # A piece of one block has no spacing of its own: the session's is used.
+    limit = CONTIGUOUS_BLOCKS * (max(_interval_s(prev), _interval_s(nxt)) or typical_s)
     return 0.0 < gap <= limit
+
+
+def _typical_interval_s(runs: Sequence[Run]) -> float:
+    """Median block interval of the runs of two blocks or more (0 when there is none)."""
+    spacings = [_interval_s(r) for r in runs if len(r) >= 2]
+    return float(np.median(spacings)) if spacings else 0.0
 
 
 def _stats(parts: Sequence[Run]) -> RunStats:
@@ -95,8 +103,8 @@ def records(session: Session) -> tuple[Run, ...]:
     """Return the session's runs with contiguous pieces of one log joined, in session order.
 
     Runs of one orientation are joined when, in absolute time, each starts after
-    the previous one ends by at most :data:`CONTIGUOUS_BLOCKS` block intervals,
-    they are listed in that order in the session, and they log the same extra
+    the previous one ends by at most :data:`CONTIGUOUS_BLOCKS` block intervals
+    (whatever order the session lists them in) and they log the same extra
     columns. Every other run is returned as it is,
     so a session of one file per orientation gives back its runs unchanged.
 
@@ -107,8 +115,9 @@ def records(session: Session) -> tuple[Run, ...]:
     Returns
     -------
     tuple of Run
-        A joined record keeps the first piece's orientation and source; its
-        arrays are the pieces' in time order.
+        A joined record keeps its first piece's (in time) orientation and source;
+        its arrays are the pieces' in time order. Records come in the order of
+        their first-listed piece.
     """
     order = sorted(
         range(len(session.runs)),
@@ -118,10 +127,10 @@ def records(session: Session) -> tuple[Run, ...]:
             i,
         ),
     )
+    typical_s = _typical_interval_s(session.runs)
     groups: list[list[int]] = []
     for i in order:
-        last = groups[-1][-1] if groups else -1
-        if groups and last < i and _continues(session.runs[last], session.runs[i]):
+        if groups and _continues(session.runs[groups[-1][-1]], session.runs[i], typical_s):
             groups[-1].append(i)
         else:
             groups.append([i])
