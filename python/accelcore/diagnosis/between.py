@@ -11,17 +11,20 @@ pattern of the runs' levels looks real. With one run per orientation, a second-o
 gain and a pattern of turn-on offsets are the same columns at the run level.
 
 So a candidate that adds such columns must also pass a test at the run level
-(:func:`between_runs_p`): the runs' mean residuals (weighted, every run one value)
-with and without the candidate, against the scatter of the runs' mean residuals that
-the models leave, pooled over the axes. An axis model whose run-constant columns span
-``q`` dimensions over ``K`` runs leaves ``K - q`` degrees of freedom between runs (a
+(:func:`between_runs_p`): on each axis it changes, the runs' mean residuals (weighted,
+every run one value) with and without the candidate, against the scatter of that
+axis' run means the model leaves. An axis model whose run-constant columns span ``q``
+dimensions over ``K`` runs leaves ``K - q`` degrees of freedom between runs (a
 six-position session with the full 3x3 gain: 6 - 4 = 2 per axis, one with a
-second-order gain). The F statistic of the candidate's run-level cut against that
-pooled scatter is the between-run evidence; with no degree of freedom left, there is
-none, and the candidate is not accepted.
+second-order gain). The axes' F tests are combined by Fisher's method: the axes need
+not scatter alike between runs (a tempco on z alone turns each run's temperature
+offset into a level of z only, and against the scatter of all axes pooled a draw of
+z's passed for a second-order gain or a misalignment). An axis with no degree of
+freedom left is judged against the pool of the others; with none anywhere, there is
+no evidence, and the candidate is not accepted.
 
 Columns that vary within runs (temperature, time, a logged supply) have run means too
-and take a little of the runs' scatter: the pooled scatter is then slightly small, and
+and take a little of the runs' scatter: the scatter left is then slightly small, and
 the test slightly lenient, never stricter than it should be.
 """
 
@@ -39,7 +42,7 @@ from accelcore.model import Term
 
 from .engine import Engine
 from .inside import excess, heldout_window_residuals
-from .stats import accept, f_sf
+from .stats import accept, chi2_sf, f_sf
 
 __all__ = [
     "RunLevelTest",
@@ -191,10 +194,13 @@ def _run_means(runs: _Runs, values: FloatArray) -> FloatArray:
 
 @dataclass(frozen=True)
 class RunLevelTest:
-    """The nested F test of some run-constant columns at the run level.
+    """The nested F tests of some run-constant columns at the run level.
 
-    ``p`` is NaN when no degree of freedom is left between runs (no evidence either
-    way); ``scatter_mg`` is the runs' pooled scatter of mean residuals, mg.
+    ``f`` is the F statistic of every changed axis' cut against the runs' scatter
+    pooled over the axes (``scatter_mg``, mg), shown; ``p`` is Fisher's combination
+    of each changed axis' own F test (its cut against its own scatter, with ``dfd``
+    the degrees of freedom they use in all), the one the selection uses. ``p`` is
+    NaN when no degree of freedom is left between runs (no evidence either way).
     """
 
     f: float
@@ -210,13 +216,16 @@ def between_runs_p(
     """Return the run-level test of a step's run-constant columns (see the module).
 
     ``current``: the model of every axis before the step; ``candidate``: the models
-    of the axes the step changes. The nested F test at the run level: the cut of the
-    runs' squared mean residuals on the changed axes, per run-level dimension the step
-    adds, against the runs' scatter that every axis' model after the step leaves.
-    None when the step adds no run-level dimension (nothing to judge between runs).
+    of the axes the step changes. The nested F test at the run level on each changed
+    axis: the cut of its runs' squared mean residuals, per run-level dimension the step
+    adds there, against the scatter its model after the step leaves (the pool of every
+    axis' when it leaves none); the p-values combined by Fisher's method. None when the
+    step adds no run-level dimension (nothing to judge between runs).
     """
     rss0 = rss1 = pooled = 0.0
     added = dof = 0
+    # Per changed axis: (its cut, the dimensions it adds, the scatter left, its dof).
+    changed: list[tuple[float, int, float, int]] = []
     for axis, terms in current.items():
         after = _run_level(eng, axis, candidate.get(axis, terms))
         if axis in candidate:
@@ -224,6 +233,7 @@ def between_runs_p(
             rss0 += before[0]
             rss1 += after[0]
             added += before[1] - after[1]
+            changed.append((before[0] - after[0], before[1] - after[1], *after))
         if after[1] > 0:
             pooled += after[0]
             dof += after[1]
@@ -233,7 +243,21 @@ def between_runs_p(
         return RunLevelTest(math.nan, added, 0, math.nan, math.nan)
     scatter = pooled / dof
     f = max(rss0 - rss1, 0.0) / added / scatter if scatter > 0 else math.inf
-    return RunLevelTest(f, added, dof, f_sf(f, added, dof), math.sqrt(scatter))
+    # Each axis' cut against its own scatter between runs, the p-values combined by
+    # Fisher's method: the axes need not scatter alike (a tempco on z alone turns each
+    # run's temperature offset into a level of z only; against the pool, a draw of z's
+    # scatter passed for an effect). An axis with no degree of freedom left is judged
+    # against the pool.
+    stat, k, used = 0.0, 0, 0
+    for cut, dims, left, left_dof in changed:
+        if dims <= 0:
+            continue
+        ref, ref_dof = (left / left_dof, left_dof) if left_dof > 0 else (scatter, dof)
+        f_axis = max(cut, 0.0) / dims / ref if ref > 0 else math.inf
+        stat -= 2.0 * math.log(max(f_sf(f_axis, dims, ref_dof), 1e-300))
+        k, used = k + 1, used + ref_dof
+    p = chi2_sf(stat, 2 * k) if k else math.nan
+    return RunLevelTest(f, added, used, p, math.sqrt(scatter))
 
 
 def cross_left_out(rows: Sequence[Mapping[str, object]], min_improvement: float) -> str:

@@ -268,13 +268,22 @@ def _stands_out(levels: Mapping[tuple[str, int], float], key: tuple[str, int]) -
     own offset, the part's turn-on repeatability) are the session's scatter, which the
     part's offset averages over: fitted as events, they would leave it to the few runs
     left. A level is an event only beyond :data:`LEVEL_OUTLIER_Z` robust standard
-    deviations (1.4826 MAD) of the others; with fewer than four others, always.
+    deviations (1.4826 MAD) of the others, and of the same axis' levels when they
+    scatter more; with fewer than four others, always.
     """
     others = np.array([v for k, v in levels.items() if k != key])
     if others.size < 4:
         return True
     mid = float(np.median(others))
     spread = 1.4826 * float(np.median(np.abs(others - mid)))
+    # An axis that scatters more than the others between runs (a tempco on z alone
+    # turns each run's temperature offset into a level of z only) is judged against
+    # its own scatter too: against the pool, each of its levels would stand out. Its
+    # own levels, this one included: the MAD of four values is not moved far by one
+    # run off, and that of three is too often small by chance.
+    same = np.array([v for k, v in levels.items() if k[0] == key[0]])
+    if same.size >= 3:
+        spread = max(spread, 1.4826 * float(np.median(np.abs(same - np.median(same)))))
     return abs(levels[key] - mid) > LEVEL_OUTLIER_Z * spread
 
 
