@@ -595,6 +595,32 @@ def test_a_log_stored_in_two_files_is_not_a_run_cut_short(S: Path) -> None:
     assert [i for i in check_session(session, warn=False) if i.kind == "short"] == []
 
 
+def test_a_log_in_two_files_listed_last_first_is_diagnosed_as_one(S: Path) -> None:
+    """The pieces are one record whatever the session's order; folds are named by it."""
+    from accelcore.diagnosis import diagnose
+
+    whole = diagnose(accelcore.load_session(S, cache=False))
+    log = S / "x_pos.csv"
+    lines = log.read_text().splitlines()
+    cut = 1 + 10 * int(0.04 * len(lines))  # the header, then whole blocks of 10 rows
+    (S / "x_pos_b.csv").write_text("\n".join([lines[0], *lines[cut:]]) + "\n")
+    log.write_text("\n".join(lines[:cut]) + "\n")
+    edit_toml(
+        S,
+        'file = "x_pos.csv"\norientation = "OX+"\n',
+        'file = "x_pos_b.csv"\norientation = "OX+"\n\n[[run]]\nfile = "x_pos.csv"\n'
+        'orientation = "OX+"\n',
+    )
+    split = diagnose(accelcore.load_session(S, cache=False))
+    assert split.folds == whole.folds
+    assert split.effects == whole.effects
+    for a in "xyz":
+        # Cut between two decimation blocks: the same blocks, the same samples; only
+        # sums taken in another order (rounding, ~1e-16 relative per operation).
+        before, after = whole.steps[-1].rms_out_axis_mg[a], split.steps[-1].rms_out_axis_mg[a]
+        assert after == pytest.approx(before, rel=1e-9), a
+
+
 def test_a_run_cut_short_gets_no_thermal_lag_from_the_diagnosis(S: Path) -> None:
     """Effects a quality finding could explain are not tried, and a warning says so."""
     from accelcore.diagnosis import diagnose

@@ -140,7 +140,7 @@ class Engine:
             parts.run,
             parts.leg,
             parts.gravity,
-            [rec.label for rec in self.records],
+            self.record_names,  # not the files': folds do not follow file cuts, nor names
             parts.leg_kinds,
             self.block_part,
             self.elapsed_s[self.block_start],
