@@ -140,7 +140,7 @@ class _Selection:
             if self.eng.n_folds < 2:
                 break
             by_family = self._candidates(step)
-            best = best_family(by_family)
+            best = best_family(by_family, self.rules.alpha)
             if best is None:
                 break
             chosen = [c for c in by_family[best] if c.accepted]

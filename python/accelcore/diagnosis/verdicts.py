@@ -18,6 +18,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from accelcore.model import AXES
 
 from .between import (
@@ -30,7 +33,7 @@ from .between import (
 from .engine import CV, Engine
 from .inside import alike, is_rough, per_sample
 from .space import Spec, is_event, without
-from .stats import accept
+from .stats import accept, paired_test
 
 __all__ = [
     "GENERIC_MARGIN",
@@ -46,6 +49,8 @@ __all__ = [
 #: the held-out squared error by this factor more: the named ones are its special
 #: cases with fewer parameters.
 GENERIC_MARGIN = 1.1
+
+FloatArray = NDArray[np.float64]
 
 #: (family, variant label, CV, spec) of one variant tried.
 Tried = tuple[str, str, CV, Spec]
@@ -208,11 +213,13 @@ def redundant(
     return out
 
 
-def best_family(by_family: Mapping[str, Sequence[Candidate]]) -> str | None:
+def best_family(by_family: Mapping[str, Sequence[Candidate]], alpha: float = 1.0) -> str | None:
     """Return the family that cuts held-out SSE most over the axes accepting it.
 
     A generic family (``... vs ...``) or a session event wins only by
-    :data:`GENERIC_MARGIN` over the best named family of the part.
+    :data:`GENERIC_MARGIN` over the best named family of the part. Then parsimony
+    (:func:`_simpler_alike`): a family with fewer parameters that the chosen one does
+    not beat by the paired test over blocks (``p < alpha``) is taken instead.
     """
     best: dict[bool, tuple[str | None, float]] = {False: (None, 0.0), True: (None, 0.0)}
     for fam, cands in by_family.items():
@@ -223,6 +230,60 @@ def best_family(by_family: Mapping[str, Sequence[Candidate]]) -> str | None:
         if gain > best[generic][1]:
             best[generic] = (fam, gain)
     (named, g_named), (generic_fam, g_generic) = best[False], best[True]
+    chosen = named
     if generic_fam is not None and g_generic > GENERIC_MARGIN * g_named:
-        return generic_fam
-    return named
+        chosen = generic_fam
+    if chosen is None or alpha >= 1.0:
+        return chosen
+    return _simpler_alike(by_family, chosen, alpha)
+
+
+def _parameters(cands: Sequence[Candidate]) -> int:
+    """Parameters a family adds over the axes accepting it: columns and time constants.
+
+    A lag's time constant, searched from the data, is a parameter as its columns are.
+    """
+    n = 0
+    for c in (c for c in cands if c.accepted):
+        lags = {t.basis.lag_s for t in c.cv.terms if t.basis.lag_s is not None}
+        lags -= {t.basis.lag_s for t in c.before.terms if t.basis.lag_s is not None}
+        n += len(c.cv.terms) - len(c.before.terms) + len(lags)
+    return n
+
+
+def _gain_blocks(cands: Sequence[Candidate]) -> FloatArray | None:
+    """Per-block cut of held-out squared error of a family, summed over its axes."""
+    gains = [c.before.sse_blocks - c.cv.sse_blocks for c in cands if c.accepted]
+    return np.sum(gains, axis=0) if gains else None
+
+
+def _simpler_alike(by_family: Mapping[str, Sequence[Candidate]], chosen: str, alpha: float) -> str:
+    """Return the family with fewer parameters than ``chosen`` that it does not beat.
+
+    Two families that explain the data alike on this session (a function of the
+    temperature with sixteen pieces and a line of the rate with one knot, when every
+    run soaks only at its cold end) are told apart only by how many parameters each
+    spends; the data cannot tell which one another session follows, and the one with
+    fewer extrapolates less. Among the families with fewer parameters, accepted on
+    every axis ``chosen`` is, whose per-block cut ``chosen`` does not exceed by the
+    one-sided paired test (``p >= alpha``), the one that cuts most; ``chosen`` when
+    there is none. Session events are not rivals of the part's effects (they are found
+    on the residual, see :mod:`.events`).
+    """
+    top = _gain_blocks(by_family[chosen])
+    if top is None or is_event(chosen):
+        return chosen
+    n_top = _parameters(by_family[chosen])
+    axes = {c.axis for c in by_family[chosen] if c.accepted}
+    found, found_gain = chosen, -math.inf
+    for fam, cands in by_family.items():
+        gain = _gain_blocks(cands)
+        if fam == chosen or gain is None or is_event(fam) or _parameters(cands) >= n_top:
+            continue
+        if not axes <= {c.axis for c in cands if c.accepted}:
+            continue  # a rival explains every axis the chosen one does
+        _, p = paired_test(top - gain)
+        total = float(gain.sum())
+        if p >= alpha and total > found_gain:
+            found, found_gain = fam, total
+    return found
