@@ -255,3 +255,46 @@ def test_clean_session_reports_no_effect_added(
     assert doc["heldout_rms_mg"]["base"] == doc["heldout_rms_mg"]["diagnosed"]
     part = _section(_page(session, d, tmp_path), "effects")
     assert "No effect added" in part and 'class="effects"' not in part
+
+
+def test_what_the_orientations_cannot_tell_is_in_the_text(
+    curved: tuple[Session, Diagnosis],
+) -> None:
+    """Two orientations (OZ+ and OZ-): x's and y's sensitivities are held at nominal.
+
+    The held-out errors are on OZ±, where those do not show; the text says so, once.
+    """
+    session = _session((), 4)
+    two = Session.from_arrays(
+        [
+            (
+                r.orientation,
+                {
+                    "time_s": r.time_s,
+                    "temp_c": r.temperature_c,
+                    "x": r.output[:, 0],
+                    "y": r.output[:, 1],
+                    "z": r.output[:, 2],
+                },
+            )
+            for r in session.runs
+            if r.orientation in ("OZ+", "OZ-")
+        ],
+        units=session.units,
+        rate_hz=session.rate_hz,
+        sensor=session.sensor,
+        decimation_factor=1,
+    )
+    d = diagnose(two)
+    assert "x:sensitivity" in d.calibration.not_identified
+    lines = d.text().splitlines()
+    start = [i for i, line in enumerate(lines) if line.startswith("Not identified")]
+    assert len(start) == 1, d.text()
+    block = lines[start[0] + 1 :]
+    assert "x:sensitivity" in block[0] and "y:sensitivity" in block[0]
+    held = [line for line in block if "held at nominal" in line]
+    assert len(held) == len(set(held)) >= 2  # each note once (they were written twice)
+    # A session of six orientations identifies everything: no such block.
+    _, six = curved
+    assert not six.calibration.not_identified
+    assert not any(line.startswith("Not identified") for line in six.text().splitlines())

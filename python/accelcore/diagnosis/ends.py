@@ -136,7 +136,10 @@ def improved_calibration(
         temperature_range_c=(float(eng.temperature.min()), float(eng.temperature.max())),
         axes=models,
         not_identified=tuple(fixed),
-        notes=(*base.notes, *fit_notes, *(f"diagnosis added {x}" for x in added)),
+        # The final fit finds again what the starting one noted: each note once.
+        notes=tuple(
+            dict.fromkeys((*base.notes, *fit_notes, *(f"diagnosis added {x}" for x in added)))
+        ),
         sensor=base.sensor,
         serial=base.serial,
         references=dict(eng.references),

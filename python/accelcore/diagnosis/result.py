@@ -29,7 +29,14 @@ from accelcore.result.calibration import Calibration
 from .engine import Engine
 from .stats import wrms
 from .steps import Step, Structure
-from .tables import effects_lines, effects_table, heldout_by_axis, heldout_lines, unexplained_lines
+from .tables import (
+    effects_lines,
+    effects_table,
+    heldout_by_axis,
+    heldout_lines,
+    not_identified_lines,
+    unexplained_lines,
+)
 
 __all__ = ["Diagnosis", "Step", "Structure"]
 
@@ -223,8 +230,9 @@ class Diagnosis:
 
         The step table (pooled errors), then the blocks "Added effects" (each
         parameter ± standard error with its unit, per axis), "Held-out error per
-        axis" (base → diagnosed) and "Unexplained" (structure left against an
-        observable), then the warnings.
+        axis" (base → diagnosed), "Unexplained" (structure left against an
+        observable) and "Not identified" (what this session's orientations cannot
+        tell, which no held-out error here measures), then the warnings.
         """
         rep = self.report()
         # The effect column as wide as its longest name (generic names are long).
@@ -251,6 +259,7 @@ class Diagnosis:
                 for e in self.session_events
             ]
         lines += ["", *unexplained_lines(self.unexplained)]
+        lines += not_identified_lines(self.calibration)
         if self.warnings:
             lines.append("")
             lines += [f"warning: {w}" for w in self.warnings]

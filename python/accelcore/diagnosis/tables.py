@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from accelcore.model import AXES
+from accelcore.result.calibration import Calibration
 
 from .steps import Step, Structure
 
@@ -32,6 +33,7 @@ __all__ = [
     "effects_table",
     "heldout_by_axis",
     "heldout_lines",
+    "not_identified_lines",
     "unexplained_lines",
     "value_se_text",
 ]
@@ -276,3 +278,25 @@ def unexplained_lines(structures: Sequence[Structure]) -> list[str]:
         for s in structures
     ]
     return lines + _aligned(rows, right=(1,), indent="  ")
+
+
+def not_identified_lines(calibration: Calibration) -> list[str]:
+    """Render the "Not identified" block: what the session's orientations cannot tell.
+
+    A sensitivity held at nominal, an offset identified only with its sensitivity:
+    every held-out error of the diagnosis is on this session's orientations, where
+    they do not show; on another orientation they do. None when everything is
+    identified.
+    """
+    if not calibration.not_identified:
+        return []
+    told = [
+        n for n in calibration.notes if "not identified" in n or "identified only combined" in n
+    ]
+    return [
+        "",
+        "Not identified by this session's orientations (held at nominal or combined; "
+        "no held-out error above measures them):",
+        "  " + ", ".join(calibration.not_identified),
+        *(f"  {n}" for n in told),
+    ]
