@@ -11,7 +11,7 @@ import pytest
 
 import accelcore
 from accelcore import simulate
-from accelcore.errors import ParseError, SessionFormatError
+from accelcore.errors import DataQualityWarning, ParseError, SessionFormatError
 from accelcore.input.session import Session
 
 pl = pytest.importorskip("polars")
@@ -251,3 +251,36 @@ def test_parquet_output_without_pyarrow_is_one_line_naming_the_extra(
     assert status == 2 and out == ""
     assert err.count("\n") == 1 and "pip install accelcore[parquet]" in err, err
     assert not (tmp_path / "out.parquet").exists()
+
+
+def _with_aux(sim: Any, every: int) -> list[tuple[str, dict[str, Any]]]:
+    """The runs with an extra column read on every ``every``-th row only (NaN between)."""
+    runs = []
+    for r in sim.runs:
+        cols = dict(r.columns)
+        aux = np.full(len(cols["x"]), np.nan)
+        aux[::every] = 3.3
+        runs.append((r.orientation, {**cols, "aux": aux}))
+    return runs
+
+
+def test_a_column_logged_more_slowly_says_what_it_takes_away(sim: Any) -> None:
+    """Rows with a NaN in any column are skipped whole: say so, with the column's name."""
+    runs = _with_aux(sim, 20)
+    n = len(runs[0][1]["x"])
+    skipped = n - len(range(0, n, 20))
+    with pytest.warns(DataQualityWarning, match=r"run \d \(O[XYZ][+-]\): .*'aux'") as seen:
+        Session.from_arrays(runs, units=sim.units, rate_hz=sim.rate_hz, sensor=sim.sensor)
+    first = str(seen[0].message)
+    assert first.startswith("run 1 (OX+)")
+    assert f"{skipped} of {n} rows" in first and "with their x, y, z" in first
+    # Every run is named, once.
+    assert len([w for w in seen if "skipped whole" in str(w.message)]) == len(runs)
+
+
+def test_a_column_never_logged_is_refused_by_name(sim: Any) -> None:
+    runs = _with_aux(sim, 10**9)
+    for _, cols in runs:
+        cols["aux"][:] = np.nan
+    with pytest.raises(accelcore.InsufficientDataError, match=r"run 1 \(OX\+\): no row.*'aux'"):
+        Session.from_arrays(runs, units=sim.units, rate_hz=sim.rate_hz, sensor=sim.sensor)

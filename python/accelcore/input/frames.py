@@ -17,6 +17,7 @@ inside :func:`frame_columns`.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -25,15 +26,28 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from accelcore.constants import DEFAULT_COLUMNS
-from accelcore.errors import ParameterError, ParseError, SessionFormatError, ShapeError
+from accelcore.errors import (
+    DataQualityWarning,
+    InsufficientDataError,
+    ParameterError,
+    ParseError,
+    SessionFormatError,
+    ShapeError,
+)
 from accelcore.input.format import check_distinct_columns
 
-__all__ = ["frame_columns", "run_table"]
+__all__ = ["check_complete_rows", "frame_columns", "run_table"]
 
 #: What installs the DataFrame adapter (narwhals) for frames other than pandas.
 FRAMES_EXTRA = "pip install accelcore[frames]"
 
 _ROLES = ("time", "temperature", "x", "y", "z")
+
+#: Share of a run's rows skipped (a value not finite in some column) from which
+#: :func:`check_complete_rows` warns: dropouts here and there are counted by the quality
+#: checks (:func:`accelcore.input.quality.check_session`); one row in twenty or more is a
+#: column missing from the log's rhythm (read at half the rate: one row in two).
+SKIPPED_WARN_SHARE = 0.05
 _FloatArray = NDArray[np.float64]
 
 
@@ -270,3 +284,61 @@ def _cell_error(
     )
     err.path, err.line, err.column = label, row + 1, index
     return err
+
+
+def check_complete_rows(
+    arrays: Sequence[NDArray[np.float64]],
+    names: Mapping[str, str],
+    extra_names: Sequence[str],
+    label: str,
+) -> None:
+    """Say which columns make rows incomplete; refuse data with no complete row.
+
+    A row with a NaN, infinite or empty value in any column is skipped whole, and the
+    accelerometer's readings in it with it: a column logged more slowly than the others
+    (NaN between its readings) silently took most of the rows away.
+
+    Parameters
+    ----------
+    arrays : sequence of ndarray
+        Time, temperature, x, y, z, then the extra columns (:func:`run_table`).
+    names : mapping of str to str
+        Column names by role.
+    extra_names : sequence of str
+        Names of the extra columns.
+    label : str
+        How messages name the run.
+
+    Raises
+    ------
+    accelcore.InsufficientDataError
+        No row has every column finite.
+
+    Warns
+    -----
+    accelcore.DataQualityWarning
+        :data:`SKIPPED_WARN_SHARE` of the rows or more are skipped: how many, and the
+        columns that are not finite there (fewer are counted by the quality checks,
+        :func:`accelcore.input.quality.check_session`).
+    """
+    columns = [names.get(r) or DEFAULT_COLUMNS[r] for r in _ROLES] + list(extra_names)
+    bad = [int(np.count_nonzero(~np.isfinite(a))) for a in arrays]
+    if not any(bad):
+        return
+    n = int(arrays[0].size)
+    complete = np.logical_and.reduce([np.isfinite(a) for a in arrays])
+    skipped = n - int(np.count_nonzero(complete))
+    which = ", ".join(f"'{c}' ({k})" for c, k in zip(columns, bad, strict=True) if k)
+    if skipped == n:
+        raise InsufficientDataError(
+            f"{label}: no row has every column finite (not finite in {which} of {n} rows); "
+            "a column never logged is left out, or given with the columns= of its role"
+        )
+    if skipped >= SKIPPED_WARN_SHARE * n:
+        warnings.warn(
+            f"{label}: {skipped} of {n} rows ({100 * skipped / n:.3g} %) skipped whole, "
+            f"with their x, y, z: not finite in {which}; a column logged more slowly than "
+            "the others leaves NaN between its readings (fill or drop it before)",
+            DataQualityWarning,
+            stacklevel=4,
+        )

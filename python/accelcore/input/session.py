@@ -41,7 +41,7 @@ from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
 from accelcore.input.consistency import check_labels, check_rate
 from accelcore.input.defaults import check_gravity, default_decimation_factor, fill_unlogged
 from accelcore.input.format import SessionFormat, check_units, gravity_of
-from accelcore.input.frames import frame_columns, run_table
+from accelcore.input.frames import check_complete_rows, frame_columns, run_table
 from accelcore.input.run import Run, RunStats
 
 __all__ = [
@@ -244,6 +244,7 @@ class Session:
                     "session logs it, or none does"
                 )
             table, extra_names = run_table(data, label, names)
+            check_complete_rows(table, names, extra_names, label)
             channels = np.column_stack(table[2:])
             time_s, temp_c = table[0], table[1]
             dec = core.Decimator(
