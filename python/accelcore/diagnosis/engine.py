@@ -144,6 +144,7 @@ class Engine:
             parts.leg_kinds,
             self.block_part,
             self.elapsed_s[self.block_start],
+            [(float(np.min(f.temperature_c)), float(np.max(f.temperature_c))) for f in feats],
         )
         self.n_folds = len(self.fold_names)
         self.sample_fold = self.block_fold[self.sample_block]

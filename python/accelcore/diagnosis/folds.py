@@ -25,6 +25,10 @@ IntArray = NDArray[np.int64]
 #: The fold schemes ``folds=`` may name.
 SCHEMES = ("auto", "runs", "legs", "blocks")
 
+#: Whole runs are folds only when, with any one held out, each gravity value of an axis
+#: that sees two is left over at least this share of the session's temperature span.
+MIN_SPAN_SHARE = 0.5
+
 #: Fewest held-out blocks a part (run x leg) is cut into when it holds the samples.
 MIN_BLOCKS_PER_PART = 3
 
@@ -67,6 +71,7 @@ def choose_folds(
     leg_kinds: Mapping[tuple[int, int], str],
     block_part: IntArray,
     block_elapsed_s: NDArray[np.float64],
+    part_span_c: Sequence[tuple[float, float]] = (),
 ) -> tuple[str, list[str], IntArray]:
     """Return the scheme, the fold names and the fold of every block.
 
@@ -85,6 +90,8 @@ def choose_folds(
         Part of each block.
     block_elapsed_s : ndarray
         Time of each block's first sample since its record's start, s.
+    part_span_c : sequence of (float, float), optional
+        Lowest and highest temperature of each part, °C (none: not checked).
     """
     if folds not in SCHEMES:
         raise ParameterError(f"folds must be auto, runs, legs or blocks, got {folds!r}")
@@ -94,15 +101,28 @@ def choose_folds(
     grav = np.asarray(part_gravity, dtype=np.float64).reshape(-1, 3)
     values = [np.unique(grav[:, i]).size for i in range(3)]
 
+    spans = np.asarray(part_span_c, dtype=np.float64).reshape(-1, 2)
+    whole_c = float(spans[:, 1].max() - spans[:, 0].min()) if spans.size else 0.0
+
     def diverse(part_fold: IntArray) -> bool:
         # Every fold's training data must keep each axis' gravity at two values or more
-        # (offset and sensitivity told apart) wherever the whole session does.
+        # (offset and sensitivity told apart) wherever the whole session does, each
+        # over a temperature span (their tempcos told apart too): a run of two minutes
+        # at the cold soak left the only other value of z's gravity, and z's
+        # sensitivity tempco rested on it when its pair was held out.
         for a_i in range(3):
             need = min(2, values[a_i])
             for k in np.unique(part_fold):
-                train = grav[part_fold != k, a_i]
-                if train.size == 0 or np.unique(train).size < need:
+                train = part_fold != k
+                g = grav[train, a_i]
+                if g.size == 0 or np.unique(g).size < need:
                     return False
+                if need < 2 or whole_c <= 0.0:
+                    continue
+                for v in np.unique(g):
+                    s = spans[train & (grav[:, a_i] == v)]
+                    if float(s[:, 1].max() - s[:, 0].min()) < MIN_SPAN_SHARE * whole_c:
+                        return False
         return True
 
     if folds in ("auto", "runs") and len(runs) >= 3:
