@@ -106,6 +106,7 @@ class Engine:
         self.part_run = parts.run
         self.part_leg = parts.leg
         self.leg_s = parts.leg_s
+        self.leg_kinds = parts.leg_kinds
         sizes = [len(f) for f in feats]
         self.n = int(sum(sizes))
         self.part_start = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)

@@ -46,6 +46,7 @@ from .generic import LINE, TEMPERATURE_OBSERVABLES, generic_variants
 from .inside import alike
 from .observables import STEADY_C_PER_MIN
 from .parameters import added_parameters, fit_models
+from .parts import one_way
 from .result import Diagnosis, Step
 from .scope import (
     QUALITY_EXPLAINS,
@@ -485,6 +486,8 @@ def diagnose(
             f"the temperature spans {span:.2f} °C (less than {MIN_TEMPERATURE_SPAN_C:g} °C): no "
             "temperature-driven effect is tried or reported"
         )
+    elif "thermal_lag" in tried and (caveat := one_way(eng.leg_kinds)):
+        warn.append(caveat)
     if checked is not None:
         quality = checked.result()
     # What a finding could explain, tried when the runs it is not about show it too.
@@ -511,10 +514,9 @@ def diagnose(
         min_improvement,
         alpha,
     )
-    # The starting calibration's cross-axis gains (the default full 3x3 gain) are
-    # constant in every run: the misalignment family adds them back when the runs
-    # support them (judged between runs, :mod:`.between`).
-    # (Only where the family can add them back: another axis sees two gravity values.)
+    # The starting calibration's cross-axis gains (the full 3x3 gain) are constant in
+    # every run: the misalignment family adds them back when the runs support them
+    # (:mod:`.between`), where it can (another axis sees two gravity values).
     held_cross = "misalignment" in tried and any(
         spec.cross and search.cross_sources(eng, a) for a, spec in specs.items()
     )
