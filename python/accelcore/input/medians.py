@@ -47,7 +47,9 @@ def median_of_finite(
         part = np.partition(a, k)
     if n % 2:
         return float(0.0 + part[k])
-    return float((0.0 + part[:k].max() + part[k]) / 2)
+    # The middle of -inf and +inf is NaN, as NumPy's median says (without its warning).
+    with np.errstate(invalid="ignore"):
+        return float((0.0 + part[:k].max() + part[k]) / 2)
 
 
 #: From this many values on, medians are first sought by :func:`_middle_from_sample`
