@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from accelcore.constants import ORIENTATIONS
 from accelcore.diagnosis import diagnose
 from accelcore.fitting.calibrate import calibrate
 from accelcore.input.session import Session
@@ -38,14 +39,6 @@ HOLDS: Final[Mapping[str, str]] = {
     "y_a": "OY-",
     "z_p": "OZ+",
     "z_a": "OZ-",
-}
-_UP: Final[Mapping[str, tuple[float, float, float]]] = {
-    "OX+": (1.0, 0.0, 0.0),
-    "OX-": (-1.0, 0.0, 0.0),
-    "OY+": (0.0, 1.0, 0.0),
-    "OY-": (0.0, -1.0, 0.0),
-    "OZ+": (0.0, 0.0, 1.0),
-    "OZ-": (0.0, 0.0, -1.0),
 }
 
 FloatArray = NDArray[np.float64]
@@ -84,7 +77,8 @@ def session_of(holds: Mapping[str, FloatArray], *, units: str, rate_hz: float) -
 def error_mg(calibration: Calibration, holds: Mapping[str, FloatArray]) -> float:
     """RMS over x, y, z of compensated output less each hold's nominal gravity, mg."""
     errors = [
-        (calibration.compensate(a, None) - np.asarray(_UP[o])) * 1000.0 for o, a in holds.items()
+        (calibration.compensate(a, None) - np.asarray(ORIENTATIONS[o])) * 1000.0
+        for o, a in holds.items()
     ]
     e = np.vstack(errors)
     return float(np.sqrt(np.mean(e * e)))

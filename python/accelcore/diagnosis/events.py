@@ -161,7 +161,7 @@ def find_run_events(
         specs[axis] = spec
         levels[axis].append(f"{effect} on {axis}")
     for a in AXES:
-        zero_g = sum(abs(eng.gravity[idx[0], AXES.index(a)]) < 0.5 for idx in runs)
+        zero_g = sum(_reads_zero_g(eng, idx, a) for idx in runs)
         if levels[a] and 2 * len(levels[a]) >= zero_g >= 2:
             # As for steps: levels off in half the runs or more are this axis' scatter
             # from run to run (a turn-on offset, a logged temperature off by run), which
@@ -204,12 +204,7 @@ def _best_level(
 ) -> tuple[str, Spec, str] | None:
     """Return the run level that cuts an axis' residual most, if it passes the test."""
     # Every (axis, run) where the axis reads 0 g: the levels tried, and the tests counted.
-    zero_g = [
-        (a, i)
-        for a in AXES
-        for i, idx in enumerate(runs)
-        if abs(eng.gravity[idx[0], AXES.index(a)]) < 0.5
-    ]
+    zero_g = [(a, i) for a in AXES for i, idx in enumerate(runs) if _reads_zero_g(eng, idx, a)]
     n_tests = len(zero_g)
     base = {a: eng.cv(a, specs[a].terms(a)) for a in AXES}
     resids = {a: eng.residuals(a, specs[a].terms(a))[0] for a in AXES}
@@ -247,6 +242,11 @@ def _best_level(
     if best is None or best[0] <= 0:
         return None
     return best[2], best[3], best[4]
+
+
+def _reads_zero_g(eng: Engine, idx: NDArray[np.int64], axis: str) -> bool:
+    """Tell whether ``axis`` reads 0 g in the run of samples ``idx`` (one orientation)."""
+    return bool(abs(eng.gravity[idx[0], AXES.index(axis)]) < 0.5)
 
 
 def _level_mg(eng: Engine, resid: FloatArray, idx: NDArray[np.int64]) -> float:

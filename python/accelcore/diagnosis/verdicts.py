@@ -223,9 +223,8 @@ def best_family(by_family: Mapping[str, Sequence[Candidate]], alpha: float = 1.0
     """
     best: dict[bool, tuple[str | None, float]] = {False: (None, 0.0), True: (None, 0.0)}
     for fam, cands in by_family.items():
-        gain = sum(
-            float(c.before.sse_blocks.sum() - c.cv.sse_blocks.sum()) for c in cands if c.accepted
-        )
+        blocks = _gain_blocks(cands)
+        gain = 0.0 if blocks is None else float(blocks.sum())
         generic = " vs " in fam or is_event(fam)
         if gain > best[generic][1]:
             best[generic] = (fam, gain)

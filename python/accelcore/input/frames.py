@@ -322,11 +322,12 @@ def check_complete_rows(
         :func:`accelcore.input.quality.check_session`).
     """
     columns = [names.get(r) or DEFAULT_COLUMNS[r] for r in _ROLES] + list(extra_names)
-    bad = [int(np.count_nonzero(~np.isfinite(a))) for a in arrays]
+    finite = [np.isfinite(a) for a in arrays]
+    bad = [int(f.size - np.count_nonzero(f)) for f in finite]
     if not any(bad):
         return
     n = int(arrays[0].size)
-    complete = np.logical_and.reduce([np.isfinite(a) for a in arrays])
+    complete = np.logical_and.reduce(finite)
     skipped = n - int(np.count_nonzero(complete))
     which = ", ".join(f"'{c}' ({k})" for c, k in zip(columns, bad, strict=True) if k)
     if skipped == n:
