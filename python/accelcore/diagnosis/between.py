@@ -183,8 +183,33 @@ def _run_level_of(eng: Engine, axis: str, terms: Sequence[Term]) -> tuple[float,
         for i, j in enumerate(constant):
             z[:, i] = _run_means(runs, eng._window_column(keys[j]))
     means = _run_means(runs, resid)
+    free = _event_levels(eng, runs)
+    if free.shape[1]:
+        # A run with a session event on some axis (found on an earlier pass): its
+        # level is free on every axis. What happened to the run (a knock, a power
+        # cycle) moves each axis, and on an axis where one run's level lies in the
+        # span of the model's run constants (the +1 g run of an axis: its level is half
+        # a second-order gain and half a sensitivity) it would pass for the part's.
+        z = np.column_stack([z, free])
+        basis, sv, _ = np.linalg.svd(z, full_matrices=False)
+        basis = basis[:, sv > sv.max() * runs.k * np.finfo(float).eps]
+        means = means - basis @ (basis.T @ means)
+        return float(means @ means), runs.k - basis.shape[1]
     rank = int(np.linalg.matrix_rank(z)) if z.size else 0
     return float(means @ means), runs.k - rank
+
+
+def _event_levels(eng: Engine, runs: _Runs) -> FloatArray:
+    """Return one indicator column (over the runs) per run of :attr:`Engine.event_runs`."""
+    if not eng.event_runs:
+        return np.zeros((runs.k, 0))
+    run = eng.sample_run[eng.window_start]
+    cols = []
+    for r in np.unique(runs.index[runs.weight > 0]):
+        label = eng.record_names[int(run[np.flatnonzero(runs.index == r)[0]])]
+        if label in eng.event_runs:
+            cols.append(np.eye(runs.k)[r])
+    return np.array(cols, dtype=np.float64).reshape(-1, runs.k).T
 
 
 def _run_means(runs: _Runs, values: FloatArray) -> FloatArray:

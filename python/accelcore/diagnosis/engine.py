@@ -238,11 +238,13 @@ class Engine:
         # or per observable of the generic family (("generic", name)).
         self._wide: dict[_CatalogueName, tuple[dict[_Key, int], FoldedLeastSquares]] = {}
         self._push_catalogues([(None, self._catalogue(None))])
+        #: Records whose level is off by a session event (free in :mod:`.between`'s tests).
+        self.event_runs: frozenset[str] = frozenset()
 
-    def less(self, corrections: Sequence[FloatArray]) -> Engine:
-        """Return the engine of this session and settings on the output less ``corrections``."""
+    def less(self, corrections: Sequence[FloatArray], event_runs: Sequence[str] = ()) -> Engine:
+        """Return this session's engine on the output less ``corrections`` (:attr:`event_runs`)."""
         folds, block_s, steady, order = self._settings
-        return Engine(
+        found = Engine(
             self.session,
             self.base,
             folds=folds,
@@ -252,6 +254,8 @@ class Engine:
             corrections=corrections,
             threads=self.threads,
         )
+        found.event_runs = frozenset(event_runs)
+        return found
 
     def compress(self, values: FloatArray) -> FloatArray:
         """Return the weighted mean of ``values`` (one per sample) in every window."""

@@ -41,7 +41,7 @@ from .engine import Engine
 from .space import EVENT_PREFIX, Spec, is_event
 from .stats import chi2_sf, corrected_p, t_sf
 
-__all__ = ["event_corrections", "find_run_events"]
+__all__ = ["event_corrections", "find_run_events", "level_runs", "levels_on_every_axis"]
 
 FloatArray = NDArray[np.float64]
 
@@ -175,6 +175,60 @@ def find_run_events(
             levels[a] = []
         lines += levels[a]
     return specs, lines, notes
+
+
+def level_runs(specs: Mapping[str, Spec]) -> list[str]:
+    """Return the records whose level some axis' events hold (a step at the run's start)."""
+    return sorted(
+        {
+            t.basis.run
+            for spec in specs.values()
+            for t in spec.events
+            if isinstance(t.basis, RunStep) and t.basis.at_s == 0.0
+        }
+    )
+
+
+def levels_on_every_axis(
+    eng: Engine, specs: Mapping[str, Spec], alpha: float
+) -> dict[str, Spec] | None:
+    """Find the level of each run of :attr:`Engine.event_runs` on the axes that read ±1 g.
+
+    A run's level is looked for first on the axes that read 0 g in it
+    (:func:`find_run_events`): on an axis that reads ±1 g, one run's level is, between
+    runs, half a sensitivity and half a second-order gain. Once a run's level is off
+    on some axis (a knock, a power glitch: what happened to the run moved every axis),
+    its level on the other axes is tried too, on an earlier pass' output less the
+    events found (``eng``), beside the effects chosen there (``specs``): kept when the
+    run's mean residual passes the test of :func:`find_run_events` (corrected over the
+    levels tried) and the fit on every sample gains. Returns the specs with the levels
+    found (None: none found).
+    """
+    specs = dict(specs)
+    runs = _runs(eng)
+    labels = [eng.record_names[int(eng.sample_run[idx[0]])] for idx in runs]
+    tried = [
+        (a, i)
+        for i, label in enumerate(labels)
+        if label in eng.event_runs
+        for a in AXES
+        if not _reads_zero_g(eng, runs[i], a)
+    ]
+    found = False
+    for a, i in tried:
+        effect = f"{EVENT_PREFIX}level of run {labels[i]}"
+        spec = specs[a]
+        if any(t.effect == effect for t in spec.events):
+            continue
+        resid = eng.residuals(a, spec.terms(a))[0]
+        if not _level_passes(eng, resid, runs[i], len(tried), alpha):
+            continue
+        trial = replace(
+            spec, events=(*spec.events, Term("offset", RunStep(labels[i], 0.0), effect=effect))
+        )
+        if eng.cv(a, trial.terms(a)).sse_in < eng.cv(a, spec.terms(a)).sse_in:
+            specs[a], found = trial, True
+    return specs if found else None
 
 
 def event_corrections(eng: Engine, models: Mapping[str, AxisModel]) -> list[FloatArray]:

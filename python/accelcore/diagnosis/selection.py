@@ -41,7 +41,7 @@ from . import search
 from .between import cross_left_out
 from .ends import improved_calibration, starting_point, usable_extras
 from .engine import Engine
-from .events import event_corrections, find_run_events
+from .events import event_corrections, find_run_events, level_runs, levels_on_every_axis
 from .generic import LINE, TEMPERATURE_OBSERVABLES, generic_variants
 from .inside import alike
 from .observables import STEADY_C_PER_MIN
@@ -58,7 +58,7 @@ from .scope import (
 )
 from .search import confounding, variants
 from .space import FAMILIES, Spec, is_event, with_tau
-from .stats import wrms
+from .stats import pooled_rms, wrms
 from .structure import (
     MIN_TEMPERATURE_SPAN_C,
     TEMPERATURE_FAMILIES,
@@ -348,9 +348,9 @@ class _Selection:
             tuple(c.axis for c in chosen),
             {c.axis: c.variant for c in chosen},
             params,
-            _pooled(rms_in),
+            pooled_rms(rms_in),
             max(max_in.values()),
-            _pooled(rms_out),
+            pooled_rms(rms_out),
             max(max_out.values()),
             rms_in,
             rms_out,
@@ -360,10 +360,6 @@ class _Selection:
             {c.axis: c.p for c in chosen},
             {a: self.specs[a].terms(a) for a in AXES},
         )
-
-
-def _pooled(values: Mapping[str, float]) -> float:
-    return math.sqrt(sum(v * v for v in values.values()) / len(values))
 
 
 def diagnose(
@@ -584,10 +580,13 @@ def _again_with_events(
     offset between folds.) The events' figures stay those of the first fit.
     """
     models, _, _ = fit_models(eng, first.specs)
-    again_eng = eng.less(event_corrections(eng, models))
+    again_eng = eng.less(event_corrections(eng, models), level_runs(first.specs))
     again = _Selection(again_eng, dict(start), rules)
     again.run(max_steps)
-    again.session_events = first.session_events
+    if (found := levels_on_every_axis(again_eng, again.specs, rules.alpha)) is not None:
+        again.specs = found
+        again.record_events()  # the levels found now: the first pass' are in the output
+    again.session_events = [*first.session_events, *again.session_events]
     before = [s.effect for s in first.steps[1:]]
     after = [s.effect for s in again.steps[1:]]
     again.notes = first.notes + again.notes

@@ -11,13 +11,23 @@ specification written plainly in Python, against which the tests check the core.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 from numpy.typing import NDArray
 
 from accelcore import core
 
-__all__ = ["accept", "chi2_sf", "corrected_p", "f_sf", "paired_test", "t_sf", "wrms"]
+__all__ = [
+    "accept",
+    "chi2_sf",
+    "corrected_p",
+    "f_sf",
+    "paired_test",
+    "pooled_rms",
+    "t_sf",
+    "wrms",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -63,6 +73,11 @@ def accept(
 def corrected_p(p: float, n_tests: int) -> float:
     """Bonferroni-corrected p-value of the smallest of ``n_tests`` p-values, ``min(1, p n)``."""
     return float(core.bonferroni(np.array([p]), n_tests=n_tests)[0])
+
+
+def pooled_rms(values: Mapping[str, float]) -> float:
+    """RMS of per-axis RMS values: ``sqrt(mean(v²))``."""
+    return math.sqrt(sum(v * v for v in values.values()) / len(values))
 
 
 def wrms(r: FloatArray, w: FloatArray) -> float:
