@@ -271,3 +271,37 @@ def test_a_column_set_per_run_is_judged_between_runs_through_its_noise(
     out = bench.run_case(case, 1, HOURS)
     assert out.added == ("extra:supply_v",), out.added
     assert out.diagnosed_mg * 2.0 <= out.base_mg, (out.base_mg, out.diagnosed_mg)
+
+
+def test_a_k2_from_one_run_per_sign_says_so(bench: ModuleType) -> None:
+    """Six runs: each axis' K2 rests on its +1 g and -1 g run, which a warning names;
+    twelve runs (each orientation twice) do not, and nothing is said."""
+    six = diagnose(
+        bench.simulate_session((se.Nonlinearity(),), 2, HOURS, bench.CALIBRATION_PROFILE)
+    )
+    assert "nonlinearity" in six.effects, six.effects
+    said = [w for w in six.warnings if w.startswith("nonlinearity (K2) on ")]
+    assert len(said) == 1, six.warnings
+    assert "x (OX+/OX-)" in said[0] and "z (OZ+/OZ-)" in said[0], said
+    halves = [
+        simulate.arrays(
+            "ADXL335",
+            seed=s,
+            duration_h=HOURS,
+            effects=(se.Nonlinearity(),),
+            **bench.CALIBRATION_PROFILE,
+        )
+        for s in (2, 502)
+    ]
+    runs = [(r.orientation, r.columns) for h in halves for r in h.runs]
+    twelve = diagnose(
+        Session.from_arrays(
+            runs,
+            units=halves[0].units,
+            rate_hz=halves[0].rate_hz,
+            sensor=halves[0].sensor,
+            decimation_factor=10,
+        )
+    )
+    assert "nonlinearity" in twelve.effects, twelve.effects
+    assert not [w for w in twelve.warnings if w.startswith("nonlinearity (K2)")], twelve.warnings

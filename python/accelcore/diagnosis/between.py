@@ -38,11 +38,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from accelcore import core
-from accelcore.model import Term
+from accelcore.model import AXES, Term
 
 from .engine import Engine
 from .inside import excess, heldout_window_residuals
 from .stats import accept, chi2_sf, f_sf
+from .steps import Step
 
 __all__ = [
     "RunLevelTest",
@@ -51,6 +52,7 @@ __all__ = [
     "cross_left_out",
     "heldout_window_residuals",
     "n_runs",
+    "one_run_caveats",
     "run_constant_keys",
     "run_level_cut",
     "within_run_sse_blocks",
@@ -387,3 +389,32 @@ def within_runs(
         min_improvement=min_improvement,
         alpha=alpha,
     )
+
+
+def one_run_caveats(eng: Engine, steps: Sequence[Step]) -> list[str]:
+    """Return a caveat for each second-order gain (``K2``) an axis gets from one run per sign.
+
+    With one run at +1 g and one at -1 g, an axis has three run levels (those runs and
+    its zero-g runs) for offset, sensitivity and ``K2``: a gain or level error of one of
+    those two runs alone (a run a percent low for its whole length) gives the same
+    levels, and the run-level test cannot tell them apart however small its p.
+    """
+    run = eng.sample_run[eng.window_start]
+    out: list[str] = []
+    for step in steps:
+        pairs = []
+        for axis in step.axes if step.effect == "nonlinearity" else ():
+            g = eng.gravity[eng.window_start, AXES.index(axis)]
+            ends = [
+                {eng.record_names[int(r)] for r in np.unique(run[g * s > 0.5])} for s in (1, -1)
+            ]
+            if all(len(e) == 1 for e in ends):
+                pairs.append(f"{axis} ({'/'.join(e.pop() for e in ends)})")
+        if pairs:
+            out.append(
+                f"nonlinearity (K2) on {', '.join(pairs)} rests on one run at +1 g and one at "
+                "-1 g: a gain or level error of one of those runs alone (a run a fraction of a "
+                "percent off for its whole length) gives the same run levels; repeat those "
+                "orientations to tell them apart"
+            )
+    return out

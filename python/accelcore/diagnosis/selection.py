@@ -38,7 +38,7 @@ from accelcore.model import AXES, Decay, RunStep
 from accelcore.result.calibration import Calibration
 
 from . import search
-from .between import cross_left_out
+from .between import cross_left_out, one_run_caveats
 from .ends import improved_calibration, starting_point, usable_extras
 from .engine import Engine
 from .events import event_corrections, find_run_events, level_runs, levels_on_every_axis
@@ -534,6 +534,7 @@ def diagnose(
     elif held_cross and not any(spec.cross for spec in selection.specs.values()):
         warn.append(cross_left_out(selection.cand_rows, rules.min_improvement))
     warn = [c.text(added) for c in confounded] + warn + selection.notes
+    warn += one_run_caveats(eng, selection.steps)
     improved = improved_calibration(base, eng, selection.specs, selection.steps)
     resid = {a: eng.residuals(a, selection.specs[a].terms(a))[0] for a in AXES}
     found = structures(
