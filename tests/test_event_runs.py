@@ -11,14 +11,21 @@ runs (``between.between_runs_p``), and it is looked for on the ±1 g axes too
 (``events.levels_on_every_axis``). Scored as a user would: fit on the calibration
 session, the RMS error against nominal gravity on an independent session of the same
 part (another profile and seed) without the event.
+
+And a step (``events.find_run_events``) must hold fitted on every sample: a local jump
+that stands out of a run's one noise scale (the noise grows at the hot end) is not one.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from types import ModuleType
+from typing import Any
 
+import numpy as np
 import pytest
 
+from accelcore import simulate
 from accelcore.diagnosis import diagnose
 from accelcore.diagnosis.between import RunLevelTest, between_runs_p
 from accelcore.diagnosis.ends import starting_point
@@ -78,3 +85,34 @@ def test_a_free_run_level_leaves_a_k2_nothing_to_test(bench: ModuleType) -> None
     # degree of freedom fewer.
     fewer = k2_test(frozenset({"OZ+"}))
     assert fewer is not None and fewer.dfn == 1 and fewer.dfd == test.dfd - 1
+
+
+@dataclass(frozen=True)
+class _NoiseGrowingHot:
+    """White output noise that grows above 25 °C: 1x the part's own at 45 °C, 2x at 65 °C."""
+
+    @property
+    def name(self) -> str:
+        return "noise_growing_hot"
+
+    @property
+    def stage(self) -> str:
+        return "output"
+
+    def apply(self, state: Any, rng: np.random.Generator) -> None:
+        sigma_g = np.asarray(simulate.default_noise_g("ADXL335"))
+        grow = (np.clip(state.die_temp_c - 25.0, 0.0, None) / 20.0)[:, None]
+        noise = rng.normal(size=state.output.shape) * sigma_g * grow
+        state.output = state.output + noise * state.truth.sensitivity_per_g
+
+
+@pytest.mark.parametrize("seed", [1, 3])
+def test_noise_that_grows_hot_is_not_a_step(bench: ModuleType, seed: int) -> None:
+    """The local jump's scale is one per run; where the noise grows, a jump stands out of
+    it. Before: a step event in one run of each of these sessions (sizes of a few
+    hundredths of a mg against their standard errors) and the effects chosen again
+    around it; now a step must also hold fitted on every sample, and none is found."""
+    session = bench.simulate_session((_NoiseGrowingHot(),), seed, HOURS, bench.CALIBRATION_PROFILE)
+    d = diagnose(session)
+    assert d.session_events == (), d.session_events
+    assert d.effects == (), d.effects

@@ -38,6 +38,7 @@ from accelcore.model import AXES, Constant, RunStep, Term
 from accelcore.result.calibration import AxisModel
 
 from .engine import Engine
+from .parameters import fit_models
 from .space import EVENT_PREFIX, Spec, is_event
 from .stats import chi2_sf, corrected_p, t_sf
 
@@ -137,7 +138,9 @@ def find_run_events(
             continue
         t0 = float(f"{eng.elapsed_s[idx[k]]:.4g}")
         effect = f"{EVENT_PREFIX}step in {label} at {t0:g} s"
-        steps.append(Term("offset", RunStep(label, t0), effect=effect))
+        step = Term("offset", RunStep(label, t0), effect=effect)
+        if _step_holds(eng, specs, step, n_windows, alpha):
+            steps.append(step)
     if len(runs) >= 2 and 2 * len(steps) >= len(runs):
         # A jump in most runs is the part's (a step at one temperature, a cycle of the
         # chamber), not something that happened to one run: not an event.
@@ -229,6 +232,27 @@ def levels_on_every_axis(
         if eng.cv(a, trial.terms(a)).sse_in < eng.cv(a, spec.terms(a)).sse_in:
             specs[a], found = trial, True
     return specs if found else None
+
+
+def _step_holds(
+    eng: Engine, specs: Mapping[str, Spec], step: Term, n_windows: int, alpha: float
+) -> bool:
+    """Tell whether a step, fitted on every sample beside the models, passes the jump's test.
+
+    The local jump responds to any sharp feature of the residual (a kink the model
+    leaves at a ramp's start, noise that grows at the hot end); a step is an offset
+    that stays: its size fitted with the rest, against its standard error, pooled over
+    the axes (chi-square, 3 dof) and corrected as the jump is.
+    """
+    trial = {a: replace(spec, events=(*spec.events, step)) for a, spec in specs.items()}
+    models, _, _ = fit_models(eng, trial)
+    stat = 0.0
+    for m in models.values():
+        j = m.terms.index(step)
+        var = float(m.covariance[j, j])
+        if m.estimated[j] and var > 0:
+            stat += float(m.coefficients[j]) ** 2 / var
+    return corrected_p(chi2_sf(stat, 3), n_windows) < alpha
 
 
 def event_corrections(eng: Engine, models: Mapping[str, AxisModel]) -> list[FloatArray]:
