@@ -39,6 +39,7 @@ from accelcore.result.calibration import AxisModel
 
 from .engine import Engine
 from .parameters import fit_models
+from .search import cross_sources
 from .space import EVENT_PREFIX, Spec, is_event
 from .stats import chi2_sf, corrected_p, t_sf
 
@@ -149,6 +150,15 @@ def find_run_events(
             "(an effect that repeats in most runs is the part's or the chamber's)"
         )
         steps = []
+    elif len(runs) == 1 and steps:
+        # With one record nothing tells a step from the part's own response where the
+        # temperature's course turns (a lag's onset as a soak ends): no run without it.
+        notes.append(
+            f"{steps[0].effect[len(EVENT_PREFIX) :]} (the session's only record) is not "
+            "treated as a session event: with one record, no other run tells a step "
+            "from the part's own response there"
+        )
+        steps = []
     for term in steps[:MAX_EVENTS]:
         for a in AXES:
             specs[a] = replace(specs[a], events=(*specs[a].events, term))
@@ -164,13 +174,18 @@ def find_run_events(
         specs[axis] = spec
         levels[axis].append(f"{effect} on {axis}")
     for a in AXES:
-        zero_g = sum(_reads_zero_g(eng, idx, a) for idx in runs)
-        if levels[a] and 2 * len(levels[a]) >= zero_g >= 2:
+        zero_g = [i for i, idx in enumerate(runs) if _reads_zero_g(eng, idx, a)]
+        units = {_level_unit(eng, before[a], runs[i], a, i) for i in zero_g}
+        # Of two ± pairs' levels (the six orientations), one off is one run, both off
+        # the axis' scatter.
+        paired = len(units) == 2 < len(zero_g)
+        off = 2 * len(levels[a])
+        if levels[a] and (off > len(units) if paired else off >= len(units) >= 2):
             # As for steps: levels off in half the runs or more are this axis' scatter
             # from run to run (a turn-on offset, a logged temperature off by run), which
             # its offset averages over; as events they would leave it to the runs left.
             notes.append(
-                f"levels off in {len(levels[a])} of {zero_g} zero-g runs of {a}: not treated "
+                f"levels off in {len(levels[a])} of {len(zero_g)} zero-g runs of {a}: not treated "
                 "as session events (the axis' scatter from run to run, which its offset "
                 "averages over)"
             )
@@ -284,28 +299,27 @@ def _best_level(
     # Every (axis, run) where the axis reads 0 g: the levels tried, and the tests counted.
     zero_g = [(a, i) for a in AXES for i, idx in enumerate(runs) if _reads_zero_g(eng, idx, a)]
     n_tests = len(zero_g)
-    base = {a: eng.cv(a, specs[a].terms(a)) for a in AXES}
-    resids = {a: eng.residuals(a, specs[a].terms(a))[0] for a in AXES}
-    raw_mg = {(a, i): _level_mg(eng, resids[a], runs[i]) for a, i in zero_g}
-    # Each level against the middle of its axis' other zero-g runs: a level every
-    # zero-g run of an axis shares is that axis' offset (moved by what its +-g runs
-    # hold: a tilted run's cosine loss), the part's or the fit's, not one run's.
-    levels_mg = {
-        (a, i): level - _middle([v for (b, j), v in raw_mg.items() if b == a and j != i])
-        for (a, i), level in raw_mg.items()
-    }
+    # An event is tried, and fitted, beside every cross-axis gain the runs can hold (the
+    # full 3x3 gain): its size is not half taken by a misalignment. It must stand out of
+    # the levels the selection's models leave, or of those the full gain leaves (an
+    # axis whose misalignment the event itself kept from passing the selection's test
+    # shows it there, and its levels look like its scatter).
+    full = {a: replace(specs[a], cross=cross_sources(eng, a)) for a in AXES}
+    base = {a: eng.cv(a, full[a].terms(a)) for a in AXES}
+    screens = [_screen(eng, model, runs, zero_g) for model in (specs, full)]
     best: tuple[float, float, str, Spec, str] | None = None
     for a, i in zero_g:
         spec, idx, label = specs[a], runs[i], labels[i]
         effect = f"{EVENT_PREFIX}level of run {label}"
         if any(t.effect == effect for t in spec.events):
             continue
-        if not _stands_out(levels_mg, (a, i)):
-            continue
-        if not _level_passes(eng, resids[a], idx, n_tests, alpha):
+        if not any(
+            _stands_out(levels, unit[(a, i)]) and _level_passes(eng, r[a], idx, n_tests, alpha)
+            for r, unit, levels in screens
+        ):
             continue
         term = Term("offset", RunStep(label, 0.0), effect=effect)
-        trial = replace(spec, events=(*spec.events, term))
+        trial = replace(full[a], events=(*spec.events, term))
         cut = base[a].sse_in - eng.cv(a, trial.terms(a)).sse_in
         fit = eng.fit(a, trial.terms(a))
         free = eng.free_terms(a, trial.terms(a))
@@ -320,6 +334,46 @@ def _best_level(
     if best is None or best[0] <= 0:
         return None
     return best[2], best[3], best[4]
+
+
+def _screen(
+    eng: Engine,
+    specs: Mapping[str, Spec],
+    runs: list[NDArray[np.int64]],
+    zero_g: list[tuple[str, int]],
+) -> tuple[dict[str, FloatArray], dict[tuple[str, int], _Unit], dict[_Unit, float]]:
+    """Return the residuals of ``specs``, each zero-g (axis, run)'s level, and the levels.
+
+    With a cross-axis gain from b, the runs at +1 g and -1 g on b share one level (the
+    gain takes their difference; a tilt of one shows as half its size in both): the
+    pair is one level, their mean. Each level is taken against the middle of its
+    axis' others: a level every zero-g run of an axis shares is that axis' offset
+    (moved by what its ±g runs hold: a tilted run's cosine loss), not one run's.
+    """
+    resids = {a: eng.residuals(a, specs[a].terms(a))[0] for a in AXES}
+    raw = {(a, i): _level_mg(eng, resids[a], runs[i]) for a, i in zero_g}
+    unit = {(a, i): _level_unit(eng, specs[a], runs[i], a, i) for a, i in zero_g}
+    mean = {u: float(np.mean([raw[k] for k in zero_g if unit[k] == u])) for u in unit.values()}
+    levels = {
+        u: v - _middle([w for o, w in mean.items() if o[0] == u[0] and o != u])
+        for u, v in mean.items()
+    }
+    return resids, unit, levels
+
+
+#: A level of the screen: (axis, run index), or (axis, "±b") for a ± pair on ``b``.
+_Unit = tuple[str, int | str]
+
+
+def _level_unit(eng: Engine, spec: Spec, idx: NDArray[np.int64], axis: str, i: int) -> _Unit:
+    """Return the level a zero-g run of ``axis`` counts in: its own, or its ± pair's.
+
+    ``(axis, i)`` for run ``i``; ``(axis, "±b")`` when the run reads ±1 g on ``b`` and
+    the axis' model holds a cross-axis gain from ``b``.
+    """
+    g = np.abs(eng.gravity[idx[0]])
+    b = AXES[int(np.argmax(g))]
+    return (axis, f"±{b}") if g.max() > 0.5 and b in spec.cross else (axis, i)
 
 
 def _reads_zero_g(eng: Engine, idx: NDArray[np.int64], axis: str) -> bool:
@@ -339,7 +393,7 @@ def _middle(values: list[float]) -> float:
     return float(np.median(values)) if values else 0.0
 
 
-def _stands_out(levels: Mapping[tuple[str, int], float], key: tuple[str, int]) -> bool:
+def _stands_out(levels: Mapping[_Unit, float], key: _Unit) -> bool:
     """Tell whether a run's level stands out of the levels of every zero-g (axis, run).
 
     A tilted run is one run off; runs whose levels all scatter (each power-on with its

@@ -1,0 +1,91 @@
+"""A session of one record: the board still in one orientation while it heats.
+
+PX4's and ArduPilot's thermal calibrations log such sessions (a cold soak, then heating
+to 60 °C or so). With one record, a jump of the residual where the temperature's course
+turns (the soak ends, a lag's onset on an axis that was not given the lag) cannot be
+told from the part's own response: no other run lacks it. It was taken as a session
+event, left out of the calibration, and the offsets became the level of the soak
+before it (x and y 0.50 -> 1.33 mg on a validation session of the same part).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from accelcore import simulate
+from accelcore.diagnosis import diagnose, residuals
+from accelcore.fitting.calibrate import calibrate
+from accelcore.input.session import Session
+from accelcore.model import AXES, base_terms
+from accelcore.simulate import RunState, Stage
+from accelcore.simulate import effects as se
+
+
+@dataclass(frozen=True)
+class _Heating:
+    """Chamber and die follow ``t0 -> t1`` after a soak: Newtonian, ``tau_min``."""
+
+    t0_c: float
+    t1_c: float
+    tau_min: float
+    soak_min: float
+
+    @property
+    def name(self) -> str:
+        return "heating_profile"
+
+    @property
+    def stage(self) -> Stage:
+        return "temperature"
+
+    def apply(self, state: RunState, rng: np.random.Generator) -> None:
+        t_min = (state.time_s - state.time_s[0]) / 60.0
+        rise = 1.0 - np.exp(-np.clip(t_min - self.soak_min, 0.0, None) / self.tau_min)
+        temp = self.t0_c + (self.t1_c - self.t0_c) * rise
+        state.chamber_temp_c, state.die_temp_c = temp.copy(), temp.copy()
+        state.logged_temp_c = temp + rng.normal(0.0, 0.02, temp.shape)
+
+
+def _one_record(profile: _Heating, seed: int) -> Session:
+    sim = simulate.arrays(
+        "ADXL335",
+        seed=seed,
+        duration_h=1.0,
+        orientations=("OZ-",),
+        soak_min=0.0,
+        probe_noise_c=0.0,
+        effects=(profile, se.ThermalLag(120.0)),
+    )
+    return Session.from_arrays(
+        [(r.orientation, r.columns) for r in sim.runs],
+        units=sim.units,
+        rate_hz=sim.rate_hz,
+        sensor=sim.sensor,
+        decimation_factor=10,
+    )
+
+
+def _rms_mg(calibration: Any, session: Session) -> float:
+    res = residuals(calibration, session)
+    temp = res["temperature_c"].to_numpy()
+    keep = (temp >= 0.0) & (temp <= 60.0)
+    err = res.loc[keep, [f"err_{a}_mg" for a in AXES]].to_numpy()
+    return float(np.sqrt(np.mean(err**2)))
+
+
+def test_a_jump_in_the_only_record_is_not_a_session_event() -> None:
+    fit_on = _one_record(_Heating(-8.0, 62.0, 18.0, 3.0), 1)
+    check_on = _one_record(_Heating(-3.0, 62.0, 12.0, 8.0), 1001)
+    d = diagnose(fit_on)
+    assert d.session_events == (), d.session_events
+    assert any("the session's only record" in w for w in d.warnings), d.warnings
+    assert "thermal_lag" in d.effects, d.effects
+    base = calibrate(fit_on, terms={a: base_terms(a) for a in AXES})
+    # Before: a step at 224.5 s and 1.35 mg against 4.11 for the seed paper's model
+    # (x and y at the soak's level); now 0.69. The noise floor of a 2 Hz sample is
+    # 0.60 mg; a lag fitted from one heating leaves a few tenths of a mg on z.
+    assert 2.0 * _rms_mg(d.calibration, check_on) <= _rms_mg(base, check_on)
+    assert _rms_mg(d.calibration, check_on) <= 0.8
