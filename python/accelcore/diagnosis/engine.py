@@ -2,8 +2,8 @@
 
 Each run's samples inside the calibration's window are cut into *parts* (run x leg of
 the temperature cycle), parts into *blocks* of at most ``block_s`` seconds (the unit
-of the paired test), and blocks into *folds* (whole runs, legs, or thirds of each run
-in time). :meth:`Engine.cv` fits an axis model once per fold on the other folds and
+of the paired test), and blocks into *folds* (whole runs, legs, or every third block of
+each run). :meth:`Engine.cv` fits an axis model once per fold on the other folds and
 once on everything, and scores each block under the fit without its fold.
 
 The rows are pushed once per catalogue, not once per model. The *catalogue* holds

@@ -4,7 +4,7 @@
 (:data:`~accelcore.diagnosis.space.FAMILIES`), each a named set of model terms, and
 adds them greedily by *held-out* error only. Cross-validation is blocked: whole runs
 are held out (three runs or more, when every fold keeps the orientations that identify
-each axis), else the legs of the temperature cycle, else thirds of each run in time. A
+each axis), else the legs of the temperature cycle, else every third block of each run. A
 family is added to an axis when the axis' held-out RMS error falls by at least
 ``min_improvement`` *and* the paired one-sided test over held-out blocks of ``block_s``
 seconds (:class:`accelcore.core.AcceptanceRule`: the per-block change of the squared
@@ -402,7 +402,7 @@ def diagnose(
         None: the whole logged range.
     folds : {"auto", "runs", "legs", "blocks"}, default "auto"
         Held-out blocks: whole runs (three runs or more that keep every axis
-        identified), legs of the temperature cycle, or thirds of each run.
+        identified), legs of the temperature cycle, or every third block of each run.
     min_improvement : float, default 0.10
         Least relative cut of an axis' held-out RMS error for an effect to be added.
     alpha : float, default 0.01
