@@ -15,13 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from accelcore import simulate
 from accelcore.diagnosis import diagnose, residuals
 from accelcore.fitting.calibrate import calibrate
 from accelcore.input.session import Session
 from accelcore.model import AXES, base_terms
 from accelcore.simulate import Effect, RunState, Stage
 from accelcore.simulate import effects as se
+from test_diagnosis import make_session
 
 
 @dataclass(frozen=True)
@@ -73,21 +73,13 @@ class _Ramps:
 def _one_record(
     profile: _Heating | _Ramps, seed: int, part: tuple[Effect, ...] = (se.ThermalLag(120.0),)
 ) -> Session:
-    sim = simulate.arrays(
-        "ADXL335",
-        seed=seed,
-        duration_h=1.0,
+    """One orientation (OZ-), the chamber following ``profile``, 1 h at 20 Hz -> 2 Hz."""
+    return make_session(
+        (profile, *part),
+        seed,
         orientations=("OZ-",),
         soak_min=0.0,
         probe_noise_c=0.0,
-        effects=(profile, *part),
-    )
-    return Session.from_arrays(
-        [(r.orientation, r.columns) for r in sim.runs],
-        units=sim.units,
-        rate_hz=sim.rate_hz,
-        sensor=sim.sensor,
-        decimation_factor=10,
     )
 
 
