@@ -55,6 +55,7 @@ __all__ = [
     "one_run_caveats",
     "run_constant_keys",
     "run_level_cut",
+    "window_residuals",
     "within_run_sse_blocks",
     "within_runs",
 ]
@@ -192,15 +193,10 @@ def _run_level_of(eng: Engine, axis: str, terms: Sequence[Term]) -> tuple[float,
     """:func:`_run_level`, computed."""
     runs = _window_runs(eng)
     keys = eng._keys(axis, terms)
-    resid = eng._yc[axis].copy()
-    held = eng._heldout_of(axis, terms)
+    resid = window_residuals(eng, axis, terms)
     constant = sorted(run_constant_keys(eng, axis, terms))
     z = np.zeros((runs.k, len(constant)))
-    if held is not None:
-        beta = np.asarray(held.coefficients, dtype=np.float64)
-        for j, key in enumerate(keys):
-            if beta[j] != 0.0 and np.isfinite(beta[j]):
-                resid -= beta[j] * eng._window_column(key)
+    if eng._heldout_of(axis, terms) is not None:
         for i, j in enumerate(constant):
             z[:, i] = _run_means(runs, eng._window_column(keys[j]))
     means = _run_means(runs, resid)
@@ -231,6 +227,22 @@ def _event_levels(eng: Engine, runs: _Runs) -> FloatArray:
         if label in eng.event_runs:
             cols.append(np.eye(runs.k)[r])
     return np.array(cols, dtype=np.float64).reshape(-1, runs.k).T
+
+
+def window_residuals(eng: Engine, axis: str, terms: Sequence[Term]) -> FloatArray:
+    """Return each window's mean residual of an axis model fitted on every sample, mg.
+
+    A window's samples share its model columns' means: exactly the weighted mean of the
+    samples' in-sample residuals.
+    """
+    resid = eng._yc[axis].copy()
+    held = eng._heldout_of(axis, terms)
+    if held is not None:
+        beta = np.asarray(held.coefficients, dtype=np.float64)
+        for j, key in enumerate(eng._keys(axis, terms)):
+            if beta[j] != 0.0 and np.isfinite(beta[j]):
+                resid -= beta[j] * eng._window_column(key)
+    return resid
 
 
 def _run_means(runs: _Runs, values: FloatArray) -> FloatArray:

@@ -37,6 +37,7 @@ from accelcore.input.medians import median_of_finite
 from accelcore.model import AXES, Constant, RunStep, Term
 from accelcore.result.calibration import AxisModel
 
+from .between import window_residuals
 from .engine import Engine
 from .parameters import fit_models
 from .search import cross_sources
@@ -314,8 +315,9 @@ def _best_level(
         if any(t.effect == effect for t in spec.events):
             continue
         if not any(
-            _stands_out(levels, unit[(a, i)]) and _level_passes(eng, r[a], idx, n_tests, alpha)
-            for r, unit, levels in screens
+            _stands_out(levels, unit[(a, i)])
+            and _level_passes(eng, eng.residuals(a, m[a].terms(a))[0], idx, n_tests, alpha)
+            for m, unit, levels in screens
         ):
             continue
         term = Term("offset", RunStep(label, 0.0), effect=effect)
@@ -341,8 +343,8 @@ def _screen(
     specs: Mapping[str, Spec],
     runs: list[NDArray[np.int64]],
     zero_g: list[tuple[str, int]],
-) -> tuple[dict[str, FloatArray], dict[tuple[str, int], _Unit], dict[_Unit, float]]:
-    """Return the residuals of ``specs``, each zero-g (axis, run)'s level, and the levels.
+) -> tuple[dict[str, Spec], dict[tuple[str, int], _Unit], dict[_Unit, float]]:
+    """Return ``specs``, each zero-g (axis, run)'s level, and the levels.
 
     With a cross-axis gain from b, the runs at +1 g and -1 g on b share one level (the
     gain takes their difference; a tilt of one shows as half its size in both): the
@@ -350,15 +352,24 @@ def _screen(
     axis' others: a level every zero-g run of an axis shares is that axis' offset
     (moved by what its ±g runs hold: a tilted run's cosine loss), not one run's.
     """
-    resids = {a: eng.residuals(a, specs[a].terms(a))[0] for a in AXES}
-    raw = {(a, i): _level_mg(eng, resids[a], runs[i]) for a, i in zero_g}
+    # Run means from the window means (exactly the samples' own, in a fraction of the
+    # time): only the levels that stand out are tested on the samples.
+    run_of = eng.sample_run[eng.window_start]
+    resid_w = {a: window_residuals(eng, a, specs[a].terms(a)) for a in AXES}
+    raw = {}
+    for a, i in zero_g:
+        sel = run_of == eng.sample_run[runs[i][0]]
+        total = float(eng.window_weight[sel].sum())
+        raw[(a, i)] = (
+            float(np.dot(eng.window_weight[sel], resid_w[a][sel])) / total if total > 0 else 0.0
+        )
     unit = {(a, i): _level_unit(eng, specs[a], runs[i], a, i) for a, i in zero_g}
     mean = {u: float(np.mean([raw[k] for k in zero_g if unit[k] == u])) for u in unit.values()}
     levels = {
         u: v - _middle([w for o, w in mean.items() if o[0] == u[0] and o != u])
         for u, v in mean.items()
     }
-    return resids, unit, levels
+    return dict(specs), unit, levels
 
 
 #: A level of the screen: (axis, run index), or (axis, "±b") for a ± pair on ``b``.
