@@ -81,6 +81,11 @@ def _runs(eng: Engine) -> list[NDArray[np.int64]]:
     return out
 
 
+def _labels(eng: Engine, runs: list[NDArray[np.int64]]) -> list[str]:
+    """Record name of each run of :func:`_runs`."""
+    return [eng.record_names[int(eng.sample_run[idx[0]])] for idx in runs]
+
+
 def _best_jump(
     resid: Mapping[str, FloatArray], idx: NDArray[np.int64], time_s: FloatArray
 ) -> tuple[int, float, int]:
@@ -128,7 +133,7 @@ def find_run_events(
     lines: list[str] = []
     notes: list[str] = []
     runs = _runs(eng)
-    labels = [eng.record_names[int(eng.sample_run[idx[0]])] for idx in runs]
+    labels = _labels(eng, runs)
     resid = {a: eng.residuals(a, specs[a].terms(a))[0] for a in AXES}
     # Steps: one pass over every run, the corrected test over all windows.
     # Every position of every run counts as a test (conservative: the windows overlap).
@@ -225,7 +230,7 @@ def levels_on_every_axis(
     """
     specs = dict(specs)
     runs = _runs(eng)
-    labels = [eng.record_names[int(eng.sample_run[idx[0]])] for idx in runs]
+    labels = _labels(eng, runs)
     tried = [
         (a, i)
         for i, label in enumerate(labels)
@@ -307,7 +312,7 @@ def _best_level(
     # shows it there, and its levels look like its scatter).
     full = {a: replace(specs[a], cross=cross_sources(eng, a)) for a in AXES}
     base = {a: eng.cv(a, full[a].terms(a)) for a in AXES}
-    screens = [_screen(eng, model, runs, zero_g) for model in (specs, full)]
+    screens = [(model, *_screen(eng, model, runs, zero_g)) for model in (specs, full)]
     best: tuple[float, float, str, Spec, str] | None = None
     for a, i in zero_g:
         spec, idx, label = specs[a], runs[i], labels[i]
@@ -343,8 +348,8 @@ def _screen(
     specs: Mapping[str, Spec],
     runs: list[NDArray[np.int64]],
     zero_g: list[tuple[str, int]],
-) -> tuple[dict[str, Spec], dict[tuple[str, int], _Unit], dict[_Unit, float]]:
-    """Return ``specs``, each zero-g (axis, run)'s level, and the levels.
+) -> tuple[dict[tuple[str, int], _Unit], dict[_Unit, float]]:
+    """Return the level each zero-g (axis, run) of ``specs``' residual counts in, and the levels.
 
     With a cross-axis gain from b, the runs at +1 g and -1 g on b share one level (the
     gain takes their difference; a tilt of one shows as half its size in both): the
@@ -369,7 +374,7 @@ def _screen(
         u: v - _middle([w for o, w in mean.items() if o[0] == u[0] and o != u])
         for u, v in mean.items()
     }
-    return dict(specs), unit, levels
+    return unit, levels
 
 
 #: A level of the screen: (axis, run index), or (axis, "±b") for a ± pair on ``b``.
@@ -390,13 +395,6 @@ def _level_unit(eng: Engine, spec: Spec, idx: NDArray[np.int64], axis: str, i: i
 def _reads_zero_g(eng: Engine, idx: NDArray[np.int64], axis: str) -> bool:
     """Tell whether ``axis`` reads 0 g in the run of samples ``idx`` (one orientation)."""
     return bool(abs(eng.gravity[idx[0], AXES.index(axis)]) < 0.5)
-
-
-def _level_mg(eng: Engine, resid: FloatArray, idx: NDArray[np.int64]) -> float:
-    """Weighted mean residual of one run, mg."""
-    w = eng.w[idx]
-    total = float(w.sum())
-    return float((w * resid[idx]).sum()) / total if total > 0 else 0.0
 
 
 def _middle(values: list[float]) -> float:
