@@ -20,13 +20,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from types import ModuleType
+from types import ModuleType, SimpleNamespace
 from typing import Any
 
 import numpy as np
 import pytest
 
-from accelcore.diagnosis.generic import KNOT_FRACTIONS, _knots
+from accelcore.diagnosis.generic import KNOT_FRACTIONS, _knots, knot_label
+from accelcore.model import TemperaturePower, TemperatureRate
 from accelcore.simulate.chain import RunState, Stage
 from helpers import chamber_rate_c_per_min
 
@@ -175,3 +176,11 @@ def test_the_rate_s_line_alone_on_two_orientations(bench: ModuleType) -> None:
         d.calibration, check_on
     )
     assert ratio >= 2.0, (ratio, d.effects)
+
+
+def test_knots_are_named_in_the_observable_s_own_values() -> None:
+    """A temperature's knots are held in dT = T - t_ref; the label names temperatures
+    (it had printed the dT values with the unit °C: "knots -18.8 °C" for 6.2 °C)."""
+    eng: Any = SimpleNamespace(t_ref_c=25.0)
+    assert knot_label(eng, TemperaturePower(1), (-18.8, 3.1)) == "knots 6.2/28.1 °C"
+    assert knot_label(eng, TemperatureRate(), (-0.022, 0.5)) == "knots -0.022/0.5 °C/min"

@@ -123,3 +123,64 @@ def test_a_record_that_only_heats_is_held_out_across_its_temperatures() -> None:
     # The noise floor is 0.60 mg; the fitted lag and curvature leave a few hundredths.
     assert _rms_mg(d.calibration, check_on) <= 0.75
     assert 2.0 * _rms_mg(d.calibration, check_on) <= _rms_mg(base, check_on)
+
+
+#: The validation sessions' heating: uneven ramps (1.6, 1.6, 2.6, 0.2 °C/min) after a soak.
+_OTHER_HEATING = ((0, -3), (8, -3), (16, 10), (35, 40), (42, 58), (60, 62))
+
+
+def test_a_warm_up_from_power_on_is_not_taken_for_the_part() -> None:
+    """A warm-up of 10 mg (300 s) from power-on, where Newtonian heating starts too.
+
+    In this one record a lag's rate term decays from the start as the warm-up does:
+    it cut the held-out error by 62 % on x and y, the warm-up (a session event) by 71 %.
+    The lag was added, carried into another session of the part that had no warm-up,
+    and raised its error (1.98 -> 2.33 mg). A part effect that follows a session event
+    less well than the event itself, on every axis it would be added to, is not taken.
+    """
+    fit_on = _one_record(_Heating(-8.0, 62.0, 18.0, 3.0), 1, (se.WarmUp(10.0, 300.0),))
+    check_on = _one_record(_Ramps(_OTHER_HEATING), 1001, ())
+    d = diagnose(fit_on)
+    assert not {"thermal_lag", "offset_curvature"} & set(d.effects), d.effects
+    base = calibrate(fit_on, terms={a: base_terms(a) for a in AXES})
+    assert "event: warm-up" in d.effects, d.effects
+    # The warm-up biases the base fit: 1.98 mg on the other session (2.33 with the lag).
+    # Fitted beside the model as an event (x and y; on z, twice as noisy, it does not
+    # pass alone), 1.28 mg: the issue's rule for session events is a cut of 1.5x.
+    assert 1.5 * _rms_mg(d.calibration, check_on) <= _rms_mg(base, check_on)
+
+
+def test_a_self_heating_part_is_not_given_a_lag_the_warm_up_beats() -> None:
+    """The die self-heats 3 °C (300 s) after every power-on, the logged board
+    temperature does not see it: its offset decays from power-on in both sessions. In
+    one record heated from power-on a lag's rate term took it on z (1.18 -> 1.37 mg on
+    another session); a warm-up follows it better (z 0.96 against 1.04 mg held out),
+    and neither is the part's to carry from one record: the base model is kept."""
+    part = (_SelfHeat(3.0, 300.0),)
+    fit_on = _one_record(_Heating(-8.0, 62.0, 18.0, 3.0), 1, part)
+    check_on = _one_record(_Ramps(_OTHER_HEATING), 1001, part)
+    d = diagnose(fit_on)
+    assert "thermal_lag" not in d.effects, d.effects
+    base = calibrate(fit_on, terms={a: base_terms(a) for a in AXES})
+    # At most the 5 % the diagnosis may add where the part has nothing it can carry.
+    assert _rms_mg(d.calibration, check_on) <= 1.05 * _rms_mg(base, check_on)
+
+
+@dataclass(frozen=True)
+class _SelfHeat:
+    """The die self-heats ``rise_c`` (first order, ``tau_s``) from power-on, unlogged."""
+
+    rise_c: float
+    tau_s: float
+
+    @property
+    def name(self) -> str:
+        return "self_heating"
+
+    @property
+    def stage(self) -> Stage:
+        return "temperature"
+
+    def apply(self, state: RunState, rng: np.random.Generator) -> None:
+        t = state.time_s - state.time_s[0]
+        state.die_temp_c = state.die_temp_c + self.rise_c * (1.0 - np.exp(-t / self.tau_s))

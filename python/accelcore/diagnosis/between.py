@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,6 +42,7 @@ from accelcore.model import AXES, Term
 
 from .engine import Engine
 from .inside import excess, heldout_window_residuals
+from .space import Spec
 from .stats import accept, chi2_sf, f_sf
 from .steps import Step
 
@@ -51,6 +52,7 @@ __all__ = [
     "between_runs_p",
     "cross_left_out",
     "heldout_window_residuals",
+    "hold_cross",
     "n_runs",
     "one_run_caveats",
     "run_constant_keys",
@@ -316,6 +318,28 @@ def between_runs_p(
         k, used = k + 1, used + ref_dof
     p = chi2_sf(stat, 2 * k) if k else math.nan
     return RunLevelTest(f, added, used, p, math.sqrt(scatter))
+
+
+def hold_cross(eng: Engine, specs: Mapping[str, Spec]) -> dict[str, Spec] | None:
+    """Return ``specs`` without the cross-axis gains the runs' levels can judge, or None.
+
+    The starting calibration's cross-axis gains (the full 3x3 gain) are constant in
+    every run: the misalignment family adds them back when the runs support them.
+    One on a gravity that only one record sees stays as calibrated (it is that
+    record's level, :attr:`Engine.gain_sources`), and all stay when no degree of
+    freedom is left between runs to judge them either way (four orientations: as many
+    runs as each axis' levels have parameters; held out, a clean misaligned part was
+    7.7 mg off on another session). None: nothing is held out.
+    """
+    held = {
+        a: replace(spec, cross=tuple(b for b in spec.cross if b not in eng.gain_sources))
+        for a, spec in specs.items()
+    }
+    changed = {a: specs[a].terms(a) for a in specs if held[a] != specs[a]}
+    if not changed:
+        return None
+    test = between_runs_p(eng, {a: spec.terms(a) for a, spec in held.items()}, changed)
+    return held if test is not None and math.isfinite(test.p) else None
 
 
 def cross_left_out(rows: Sequence[Mapping[str, object]], min_improvement: float) -> str:

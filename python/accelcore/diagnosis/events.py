@@ -310,7 +310,10 @@ def _best_level(
     # the levels the selection's models leave, or of those the full gain leaves (an
     # axis whose misalignment the event itself kept from passing the selection's test
     # shows it there, and its levels look like its scatter).
-    full = {a: replace(specs[a], cross=cross_sources(eng, a)) for a in AXES}
+    full = {
+        a: replace(specs[a], cross=tuple(dict.fromkeys((*specs[a].cross, *cross_sources(eng, a)))))
+        for a in AXES
+    }
     base = {a: eng.cv(a, full[a].terms(a)) for a in AXES}
     screens = [(model, *_screen(eng, model, runs, zero_g)) for model in (specs, full)]
     best: tuple[float, float, str, Spec, str] | None = None

@@ -30,7 +30,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from accelcore.model import (
-    AXES,
     Basis,
     Elapsed,
     Extra,
@@ -119,6 +118,17 @@ def observable_unit(inner: Basis) -> str:
     if isinstance(inner, Elapsed):
         return "h"
     return "unit"
+
+
+def knot_label(eng: Engine, inner: Basis, knot_values: Sequence[float]) -> str:
+    """Return a variant's knots as the observable's own values (``knots 6.2/16.9 °C``).
+
+    A temperature's knots are held in ``T - t_ref`` (the basis ``dT``); they are shown as
+    the temperature itself.
+    """
+    shift = eng.t_ref_c if isinstance(inner, TemperaturePower) else 0.0
+    values = "/".join(f"{float(f'{k + shift:.6g}'):g}" for k in knot_values)
+    return f"knots {values} {observable_unit(inner)}"
 
 
 def knots(
@@ -217,7 +227,7 @@ def generic_variants(
         if isinstance(t.basis, Hinge)
     }
     sources: list[str | None] = [None]
-    sources += [b for b in AXES if eng.gravity_values[AXES.index(b)] >= 2]
+    sources += list(eng.gain_sources)
     out: list[tuple[str, str, Spec, list[tuple[str, Spec]]]] = []
     # Each observable's knot sets, coarse to fine; their catalogues pushed together.
     found: list[tuple[str, Basis, list[tuple[float, ...]]]] = []
@@ -247,7 +257,6 @@ def generic_variants(
         ]
     )
     for name, inner, sets in found:
-        unit = observable_unit(inner)
         for source in sources:
             if (source, inner) in held:
                 continue
@@ -260,7 +269,7 @@ def generic_variants(
                 terms = [t for t in _slot_terms(inner, source, family, ks) if _key(t) not in have]
                 if not terms:
                     continue  # the line alone, already in the model
-                label = LINE if not ks else "knots " + "/".join(f"{k:g}" for k in ks) + f" {unit}"
+                label = LINE if not ks else knot_label(eng, inner, ks)
                 if event:
                     variants.append((label, replace(spec, events=(*spec.events, *terms))))
                 else:

@@ -100,7 +100,12 @@ def added_parameters(
                     unit = f"%/{per}" if per is not None else f"%/°C^{order or ''}"
                 factor = 100.0 / s
             else:
-                unit = "deg" if per is None else f"deg/{per}"
+                if per is not None:
+                    unit = f"deg/{per}"
+                elif isinstance(t.basis, Elapsed):
+                    unit = "deg/h"
+                else:
+                    unit = f"deg/°C^{order}" if order else "deg"
                 factor = math.degrees(1.0) / s
             out.append(
                 {

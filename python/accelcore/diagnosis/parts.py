@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from accelcore.errors import InsufficientDataError
 from accelcore.fitting.calibrate import CutFeatures, block_weights
 from accelcore.input.run import Run
-from accelcore.model import Features
+from accelcore.model import AXES, Features
 from accelcore.result.calibration import Calibration
 
 from .observables import leg_labels, rate_c_per_min
@@ -65,6 +65,24 @@ class Parts:
     wholes: list[tuple[FloatArray, FloatArray]]
     gather: list[NDArray[np.int64]]
     leg_s: dict[tuple[int, int], float] = field(default_factory=dict)
+
+    def gain_sources(self) -> tuple[str, ...]:
+        """Return the axes whose gravity a gain of the part can be told on.
+
+        Two gravity values (a gain apart from the offset), and not 0 in two records at
+        least: a gain on a gravity that only one record sees acts in that record alone,
+        and is that record's own level and wander as much as the part's (three
+        orientations, each axis down once: a cross-axis gain that follows temperature
+        took one run's day of wander, ``tests/test_gain_sources.py``). A session of one
+        record has none.
+        """
+        found = []
+        for i, axis in enumerate(AXES):
+            values = {float(g[i]) for g in self.gravity}
+            records = {r for r, g in zip(self.run, self.gravity, strict=True) if g[i] != 0}
+            if len(values) >= 2 and len(records) >= 2:
+                found.append(axis)
+        return tuple(found)
 
 
 def cut_parts(

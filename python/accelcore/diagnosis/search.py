@@ -116,8 +116,8 @@ _CONFOUND_TAU_S = 120.0
 
 
 def cross_sources(eng: Engine, axis: str) -> tuple[str, ...]:
-    """Return the other axes that see two gravity values (sources of cross-axis gains)."""
-    return tuple(b for b in AXES if b != axis and eng.gravity_values[AXES.index(b)] >= 2)
+    """Return the other axes that can carry a cross-axis gain (``Engine.gain_sources``)."""
+    return tuple(b for b in eng.gain_sources if b != axis)
 
 
 def variants(
@@ -137,7 +137,8 @@ def variants(
     if family == "smooth":
         return [v[:3] for v in generic_variants(axis, spec, eng, skip)]
     a_i = AXES.index(axis)
-    own_values = eng.gravity_values[a_i]
+    # Gains on the axis' own gravity: only where the part's can be told (gain_sources).
+    own_values = eng.gravity_values[a_i] if axis in eng.gain_sources else 1
     out: list[tuple[str, str, Spec]] = []
     if family == "offset_curvature":
         out = [
@@ -149,10 +150,11 @@ def variants(
             (family, f"order {k}", replace(spec, gain_order=k))
             for k in range(max(2, spec.gain_order + 1), max_order + 1)
         ]
-    elif family == "misalignment" and not spec.cross:
-        sources = cross_sources(eng, axis)
-        if sources:
-            out = [(family, "from " + "+".join(sources), replace(spec, cross=sources))]
+    elif family == "misalignment":
+        missing = tuple(b for b in cross_sources(eng, axis) if b not in spec.cross)
+        if missing:
+            cross = (*spec.cross, *missing)
+            out = [(family, "from " + "+".join(missing), replace(spec, cross=cross))]
     elif family == "nonlinearity" and axis not in spec.squares and own_values >= 3:
         # The axis' own K2: g_a^2 beside the offset and the sensitivity needs three
         # values of g_a (-1, 0, +1 g). Not g_b^2 of another axis: with one run per

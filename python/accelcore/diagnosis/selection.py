@@ -38,7 +38,7 @@ from accelcore.model import AXES, Decay, RunStep
 from accelcore.result.calibration import Calibration
 
 from . import search
-from .between import cross_left_out, one_run_caveats
+from .between import cross_left_out, hold_cross, one_run_caveats
 from .ends import improved_calibration, starting_point, usable_extras
 from .engine import Engine
 from .events import event_corrections, find_run_events, level_runs, levels_on_every_axis
@@ -510,17 +510,12 @@ def diagnose(
         min_improvement,
         alpha,
     )
-    # The starting calibration's cross-axis gains (the full 3x3 gain) are constant in
-    # every run: the misalignment family adds them back when the runs support them
-    # (:mod:`.between`), where it can (another axis sees two gravity values).
-    held_cross = "misalignment" in tried and any(
-        spec.cross and search.cross_sources(eng, a) for a, spec in specs.items()
-    )
-    if held_cross:
-        specs = {
-            a: replace(spec, cross=()) if search.cross_sources(eng, a) else spec
-            for a, spec in specs.items()
-        }
+    # The starting calibration's cross-axis gains that the runs' levels can judge are
+    # held out; the misalignment family adds them back when the runs support them.
+    held = hold_cross(eng, specs) if "misalignment" in tried else None
+    held_cross = held is not None
+    specs = held or specs
+    sources = {a: search.cross_sources(eng, a) for a in AXES}
     specs_at_start = dict(specs)
     selection = _Selection(eng, specs, rules)
     selection.run(max_steps)
@@ -529,9 +524,11 @@ def diagnose(
         if selection.session_events:
             selection, eng = _again_with_events(eng, specs_at_start, selection, rules, max_steps)
     added = [s.effect for s in selection.steps[1:]]
-    if any(spec.cross for spec in specs_at_start.values()):
+    if any(set(spec.cross) & set(sources[a]) for a, spec in specs_at_start.items()):
         added.append("misalignment")  # the model holds the cross-axis gain throughout
-    elif held_cross and not any(spec.cross for spec in selection.specs.values()):
+    elif held_cross and not any(
+        set(spec.cross) & set(sources[a]) for a, spec in selection.specs.items()
+    ):
         warn.append(cross_left_out(selection.cand_rows, rules.min_improvement))
     warn = [c.text(added) for c in confounded] + warn + selection.notes
     warn += one_run_caveats(eng, selection.steps)

@@ -223,6 +223,8 @@ def best_family(by_family: Mapping[str, Sequence[Candidate]], alpha: float = 1.0
     """
     best: dict[bool, tuple[str | None, float]] = {False: (None, 0.0), True: (None, 0.0)}
     for fam, cands in by_family.items():
+        if stands_in_for_event(cands, by_family):
+            continue
         blocks = _gain_blocks(cands)
         gain = 0.0 if blocks is None else float(blocks.sum())
         generic = " vs " in fam or is_event(fam)
@@ -235,6 +237,37 @@ def best_family(by_family: Mapping[str, Sequence[Candidate]], alpha: float = 1.0
     if chosen is None or alpha >= 1.0:
         return chosen
     return _simpler_alike(by_family, chosen, alpha)
+
+
+def stands_in_for_event(
+    cands: Sequence[Candidate], by_family: Mapping[str, Sequence[Candidate]]
+) -> bool:
+    """Tell whether a family of the part does worse, on every axis accepting it, than an event.
+
+    The event: a named session event of the same step (a warm-up after power-on, not a
+    generic function of time), whose candidate on each of those axes cuts the held-out
+    error by more (each against the model it was judged on), accepted there or not.
+    A part effect that follows such an event less well than the event itself stands in
+    for it: it would carry into other data what may have happened in this session only
+    (in one record heated from power-on, a lag's rate term and a warm-up both decay from
+    the start). Session events are never rivals of one another here.
+    """
+    accepted = [c for c in cands if c.accepted]
+    if not accepted or is_event(accepted[0].family):
+        return False
+    for fam, events in by_family.items():
+        if not is_event(fam) or " vs " in fam:
+            continue
+        by_axis = {e.axis: e for e in events}
+        if all(c.axis in by_axis and _kept(by_axis[c.axis]) < _kept(c) for c in accepted):
+            return True
+    return False
+
+
+def _kept(c: Candidate) -> float:
+    """Held-out RMS error of a candidate over the one of the model it was judged on."""
+    before = c.before.rms_out
+    return c.cv.rms_out / before if before > 0 and math.isfinite(c.cv.rms_out) else math.inf
 
 
 def _parameters(cands: Sequence[Candidate]) -> int:
@@ -278,6 +311,8 @@ def _simpler_alike(by_family: Mapping[str, Sequence[Candidate]], chosen: str, al
     for fam, cands in by_family.items():
         gain = _gain_blocks(cands)
         if fam == chosen or gain is None or is_event(fam) or _parameters(cands) >= n_top:
+            continue
+        if stands_in_for_event(cands, by_family):
             continue
         if not axes <= {c.axis for c in cands if c.accepted}:
             continue  # a rival explains every axis the chosen one does
