@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from accelcore.model import (
+    AXES,
     Basis,
     Elapsed,
     Extra,
@@ -227,7 +228,13 @@ def generic_variants(
         if isinstance(t.basis, Hinge)
     }
     sources: list[str | None] = [None]
-    sources += list(eng.gain_sources)
+    # The axis' own gain wherever it sees two gravity values (as the base's sensitivity
+    # is told); another axis' only on a gravity two records see (Parts.gain_sources).
+    sources += [
+        b
+        for i, b in enumerate(AXES)
+        if eng.gravity_values[i] >= 2 and (b == axis or b in eng.gain_sources)
+    ]
     out: list[tuple[str, str, Spec, list[tuple[str, Spec]]]] = []
     # Each observable's knot sets, coarse to fine; their catalogues pushed together.
     found: list[tuple[str, Basis, list[tuple[float, ...]]]] = []

@@ -67,14 +67,15 @@ class Parts:
     leg_s: dict[tuple[int, int], float] = field(default_factory=dict)
 
     def gain_sources(self) -> tuple[str, ...]:
-        """Return the axes whose gravity a gain of the part can be told on.
+        """Return the axes whose gravity another axis' gain (cross-axis) can be told on.
 
         Two gravity values (a gain apart from the offset), and not 0 in two records at
-        least: a gain on a gravity that only one record sees acts in that record alone,
-        and is that record's own level and wander as much as the part's (three
-        orientations, each axis down once: a cross-axis gain that follows temperature
-        took one run's day of wander, ``tests/test_gain_sources.py``). A session of one
-        record has none.
+        least: a cross-axis gain on a gravity that only one record sees acts in that
+        record alone, and is that record's own level and course as much as the part's
+        (three orientations, each axis down once: a cross-axis gain that follows
+        temperature took one run's day of wander, ``tests/test_gain_sources.py``). An
+        axis' own gain is told wherever it sees two gravity values, as the base model's
+        sensitivity is. A session of one record has none.
         """
         found = []
         for i, axis in enumerate(AXES):

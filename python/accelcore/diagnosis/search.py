@@ -137,8 +137,7 @@ def variants(
     if family == "smooth":
         return [v[:3] for v in generic_variants(axis, spec, eng, skip)]
     a_i = AXES.index(axis)
-    # Gains on the axis' own gravity: only where the part's can be told (gain_sources).
-    own_values = eng.gravity_values[a_i] if axis in eng.gain_sources else 1
+    own_values = eng.gravity_values[a_i]
     out: list[tuple[str, str, Spec]] = []
     if family == "offset_curvature":
         out = [
