@@ -12,7 +12,9 @@ from types import ModuleType
 
 import pytest
 
+from accelcore import simulate
 from accelcore.diagnosis import diagnose
+from accelcore.input.session import Session
 from accelcore.simulate import effects as se
 
 HEAT = {"t_start_c": -2.0, "t_end_c": 65.0, "soak_min": 10.0, "cool_back": False}
@@ -31,4 +33,27 @@ def test_a_session_that_runs_one_way_says_the_lag_is_not_shown(
 
 def test_a_cycle_that_heats_and_cools_back_says_nothing_of_it(bench: ModuleType) -> None:
     d = diagnose(bench.simulate_session((se.ThermalLag(90.0),), 1, 0.5, bench.CALIBRATION_PROFILE))
+    assert not any(w.startswith("the temperature only") for w in d.warnings), d.warnings
+
+
+def test_short_runs_that_cool_back_are_not_said_to_only_heat() -> None:
+    """Six 10 min runs: 2 min soak, 4 min heating, 4 min cooling back. Legs shorter
+    than 5 min join a neighbour, so each run had one leg, "heating", and the session
+    was said to only heat."""
+    sim = simulate.arrays(
+        "ADXL335",
+        seed=1,
+        duration_h=1 / 6,
+        soak_min=2.0,
+        cool_back=True,
+        effects=(se.ThermalLag(30.0),),
+    )
+    session = Session.from_arrays(
+        [(r.orientation, r.columns) for r in sim.runs],
+        units=sim.units,
+        rate_hz=sim.rate_hz,
+        sensor=sim.sensor,
+        decimation_factor=10,
+    )
+    d = diagnose(session)
     assert not any(w.startswith("the temperature only") for w in d.warnings), d.warnings

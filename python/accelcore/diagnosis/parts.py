@@ -142,8 +142,22 @@ def cut_parts(
     return out
 
 
-def one_way(leg_kinds: Mapping[tuple[int, int], str]) -> str | None:
+#: Share of the session's travel in temperature that the other way must run to count.
+OTHER_WAY_SHARE = 0.25
+
+
+def one_way(
+    leg_kinds: Mapping[tuple[int, int], str],
+    rate_c_per_min: FloatArray | None = None,
+    elapsed_s: FloatArray | None = None,
+) -> str | None:
     """Return the caveat of a session whose temperature runs one way only, else None.
+
+    ``rate_c_per_min``: the samples' rates; ``elapsed_s``: their times in their records.
+    Legs shorter than :data:`.observables.MIN_LEG_S` join a neighbour: six 10 min runs
+    that heat for 4 min and cool back for 4 had one leg each, "heating", and were said
+    to only heat. The way back counts when the samples that run it travel at least
+    :data:`OTHER_WAY_SHARE` of the way the legs run.
 
     On a ramp, a die that lags the logged temperature by ``tau`` reads the temperature
     ``tau·dT/dt`` behind: at one rate that is a shift, which the offset and its tempco
@@ -156,6 +170,15 @@ def one_way(leg_kinds: Mapping[tuple[int, int], str]) -> str | None:
     if len(kinds) != 1:
         return None
     way, other = ("rises", "cools") if kinds == {"heating"} else ("falls", "heats")
+    steps = np.diff(elapsed_s) if elapsed_s is not None else np.zeros(0)
+    interval_s = float(np.median(steps[steps > 0])) if np.any(steps > 0) else 0.0
+    if rate_c_per_min is not None and interval_s > 0:
+        sign = 1.0 if way == "rises" else -1.0
+        moved = sign * np.asarray(rate_c_per_min) * (interval_s / 60.0)
+        there = float(moved[moved > 0].sum())
+        back = float(-moved[moved < 0].sum())
+        if there > 0 and back >= OTHER_WAY_SHARE * there:
+            return None
     return (
         f"the temperature only {way} in this session: a lag of the die behind the logged "
         "temperature shows only where a ramp starts or stops (along a ramp at one rate it "

@@ -482,7 +482,7 @@ def diagnose(
             f"the temperature spans {span:.2f} °C (less than {MIN_TEMPERATURE_SPAN_C:g} °C): no "
             "temperature-driven effect is tried or reported"
         )
-    elif "thermal_lag" in tried and (caveat := one_way(eng.leg_kinds)):
+    elif "thermal_lag" in tried and (caveat := one_way(eng.leg_kinds, eng.rate, eng.elapsed_s)):
         warn.append(caveat)
     if checked is not None:
         quality = checked.result()
