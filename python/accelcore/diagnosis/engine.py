@@ -117,7 +117,7 @@ class Engine:
         self.output = np.vstack(parts.output)
         #: Distinct gravity values each axis sees (2 or more: offset and gain told apart).
         self.gravity_values = tuple(int(np.unique(self.gravity[:, i]).size) for i in range(3))
-        #: Axes whose gravity a gain of the part can be told on (:meth:`.Parts.gain_sources`).
+        #: Axes whose gravity a cross-axis gain can be told on (:meth:`.Parts.gain_sources`).
         self.gain_sources = parts.gain_sources()
         self.temperature = np.concatenate([f.temperature_c for f in feats])
         self.elapsed_s = np.concatenate([np.asarray(f.time_s) for f in feats])

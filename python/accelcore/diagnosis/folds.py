@@ -2,9 +2,14 @@
 
 A fold is a set of blocks held out together. :func:`choose_folds` picks whole
 records (three or more, each fold's training data keeping every axis' gravity at
-two values wherever the session has them), else legs, else every third block of
-each record in time. Records, not files: the same samples cut into files differently
-get the same folds.
+two values wherever the session has them), else legs (three or more), else every
+third block of each record in time. Records, not files: the same samples cut into
+files differently get the same folds.
+
+Two legs (heat, then cool back) are not folds: each would be fitted on the other
+direction alone, along which time and temperature move together; a drift fitted on
+one ramp was extrapolated to the other, never passed, and a warm-up and a lag took its
+place (two to five orientations, one run each).
 
 Every scheme holds out data inside the session's temperature range: a run, or a leg,
 spans it. Within a record that runs one way only (a board heated from a soak, as PX4's
@@ -138,7 +143,7 @@ def choose_folds(
         if folds == "runs" or diverse(pf):
             return "runs", [f"run {run_labels[r]}" for r in runs], pf[block_part]
     n_legs = int(p_leg.max()) + 1
-    if folds in ("auto", "legs") and n_legs >= 2:
+    if (folds == "auto" and n_legs >= 3) or (folds == "legs" and n_legs >= 2):
         names = []
         for leg in range(n_legs):
             kinds = sorted({leg_kinds[(r, lg)] for (r, lg) in leg_kinds if lg == leg})
