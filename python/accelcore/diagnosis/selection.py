@@ -38,7 +38,7 @@ from accelcore.model import AXES, Decay, RunStep
 from accelcore.result.calibration import Calibration
 
 from . import search
-from .between import cross_left_out, hold_cross, one_run_caveats
+from .between import cross_given_back, cross_left_out, hold_cross, one_run_caveats
 from .ends import improved_calibration, starting_point, usable_extras
 from .engine import Engine
 from .events import event_corrections, find_run_events, level_runs, levels_on_every_axis
@@ -510,10 +510,9 @@ def diagnose(
         min_improvement,
         alpha,
     )
-    # The starting calibration's cross-axis gains that the runs' levels can judge are
-    # held out; the misalignment family adds them back when the runs support them.
+    # Starting cross-axis gains the runs can judge are held out (:func:`.hold_cross`).
     held = hold_cross(eng, specs) if "misalignment" in tried else None
-    held_cross = held is not None
+    held_cross, calibrated = held is not None, dict(specs)
     specs = held or specs
     sources = {a: search.cross_sources(eng, a) for a in AXES}
     specs_at_start = dict(specs)
@@ -526,9 +525,11 @@ def diagnose(
     added = [s.effect for s in selection.steps[1:]]
     if any(set(spec.cross) & set(sources[a]) for a, spec in specs_at_start.items()):
         added.append("misalignment")  # the model holds the cross-axis gain throughout
-    elif held_cross and not any(
-        set(spec.cross) & set(sources[a]) for a, spec in selection.specs.items()
-    ):
+    elif held_cross and (back := cross_given_back(eng, selection.specs, calibrated)):
+        selection.specs = back  # no test can judge them now: as calibrated
+        if selection.session_events:
+            selection.record_events()
+    elif held_cross and not any(set(s.cross) & set(sources[a]) for a, s in selection.specs.items()):
         warn.append(cross_left_out(selection.cand_rows, rules.min_improvement))
     warn = [c.text(added) for c in confounded] + warn + selection.notes
     warn += one_run_caveats(eng, selection.steps)
