@@ -377,6 +377,7 @@ def cross_left_out(rows: Sequence[Mapping[str, object]], min_improvement: float)
         + (
             f" (held-out error {-float(r['cut_pct']):+.2g} %)"  # type: ignore[arg-type]
             if float(r["cut_pct"]) <= 0  # type: ignore[arg-type]
+            and float(r["cut_between_runs_pct"]) >= 100 * min_improvement  # type: ignore[arg-type]
             else ""
         )
         for r in first
