@@ -42,7 +42,7 @@ from accelcore.model import AXES, Term
 
 from .engine import Engine
 from .inside import excess, heldout_window_residuals
-from .space import Spec
+from .space import Spec, with_cross
 from .stats import accept, chi2_sf, f_sf
 from .steps import Step
 
@@ -355,10 +355,7 @@ def cross_given_back(
     ``calibrate``). As at the start (:func:`hold_cross`), what no test can judge stays
     as calibrated. None: a test can be made (its verdict stands).
     """
-    back = {
-        a: replace(spec, cross=tuple(dict.fromkeys((*spec.cross, *start[a].cross))))
-        for a, spec in specs.items()
-    }
+    back = {a: with_cross(spec, start[a].cross) for a, spec in specs.items()}
     if back == dict(specs) or hold_cross(eng, back) is not None:
         return None
     return back

@@ -41,7 +41,7 @@ from .between import window_residuals
 from .engine import Engine
 from .parameters import fit_models
 from .search import cross_sources
-from .space import EVENT_PREFIX, Spec, is_event
+from .space import EVENT_PREFIX, Spec, is_event, with_cross
 from .stats import chi2_sf, corrected_p, t_sf
 
 __all__ = ["event_corrections", "find_run_events", "level_runs", "levels_on_every_axis"]
@@ -310,10 +310,7 @@ def _best_level(
     # the levels the selection's models leave, or of those the full gain leaves (an
     # axis whose misalignment the event itself kept from passing the selection's test
     # shows it there, and its levels look like its scatter).
-    full = {
-        a: replace(specs[a], cross=tuple(dict.fromkeys((*specs[a].cross, *cross_sources(eng, a)))))
-        for a in AXES
-    }
+    full = {a: with_cross(specs[a], cross_sources(eng, a)) for a in AXES}
     base = {a: eng.cv(a, full[a].terms(a)) for a in AXES}
     screens = [(model, *_screen(eng, model, runs, zero_g)) for model in (specs, full)]
     best: tuple[float, float, str, Spec, str] | None = None

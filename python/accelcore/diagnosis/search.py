@@ -34,7 +34,7 @@ from accelcore.model import (
 from .engine import CV, Engine
 from .generic import generic_variants
 from .observables import MIN_LEG_S
-from .space import Spec, with_tau
+from .space import Spec, with_cross, with_tau
 from .structure import MIN_TEMPERATURE_SPAN_C, temperature_span_c
 
 __all__ = [
@@ -152,8 +152,7 @@ def variants(
     elif family == "misalignment":
         missing = tuple(b for b in cross_sources(eng, axis) if b not in spec.cross)
         if missing:
-            cross = (*spec.cross, *missing)
-            out = [(family, "from " + "+".join(missing), replace(spec, cross=cross))]
+            out = [(family, "from " + "+".join(missing), with_cross(spec, missing))]
     elif family == "nonlinearity" and axis not in spec.squares and own_values >= 3:
         # The axis' own K2: g_a^2 beside the offset and the sensitivity needs three
         # values of g_a (-1, 0, +1 g). Not g_b^2 of another axis: with one run per

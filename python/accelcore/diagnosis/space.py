@@ -31,6 +31,7 @@ __all__ = [
     "Spec",
     "is_event",
     "spec_from_terms",
+    "with_cross",
     "with_tau",
     "without",
 ]
@@ -224,6 +225,11 @@ def _generic(term: Term, axis: str) -> bool:
     if term.kind == "gain" and isinstance(b, (Elapsed, Extra)):
         return True
     return term.kind == "gain" and term.source != axis and b == TemperaturePower(1)
+
+
+def with_cross(spec: Spec, sources: Sequence[str]) -> Spec:
+    """Return ``spec`` with cross-axis gains from ``sources`` too (the missing ones, last)."""
+    return replace(spec, cross=tuple(dict.fromkeys((*spec.cross, *sources))))
 
 
 def with_tau(spec: Spec, variant: str, tau: float) -> Spec:
