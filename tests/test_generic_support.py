@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from accelcore.diagnosis.generic import KNOT_FRACTIONS, _knots, knot_label
+from accelcore.diagnosis.generic import KNOT_FRACTIONS, _count_near, _knots, knot_label
 from accelcore.model import TemperaturePower, TemperatureRate
 from accelcore.simulate.chain import RunState, Stage
 from helpers import chamber_rate_c_per_min
@@ -124,7 +124,31 @@ def test_no_knot_between_the_values_a_rate_dwells_at() -> None:
         ]
     )
     lo, hi = (float(x) for x in np.quantile(v, [0.05, 0.95]))
-    assert _knots(v, (lo, hi), KNOT_FRACTIONS) == (0.0,)
+    assert _knots(np.sort(v), (lo, hi), KNOT_FRACTIONS) == (0.0,)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_count_near_a_knot_is_the_plain_test_s(seed: int) -> None:
+    """Counted by bisection of the sorted samples, exactly as ``abs(v - raw) <= reach``.
+
+    Samples are put on the band's edges and one ulp either side of them (and repeated,
+    as a logged temperature's are), where a count by place alone could differ.
+    """
+    rng = np.random.default_rng(seed)
+    raw, reach = float(rng.uniform(-30, 30)), float(rng.uniform(1e-3, 10))
+    edges = [raw - reach, raw + reach]
+    near_edges = [np.nextafter(e, d) for e in edges for d in (-np.inf, np.inf)]
+    v = np.sort(
+        np.concatenate(
+            [
+                rng.uniform(raw - 3 * reach, raw + 3 * reach, 500),
+                np.repeat(np.round(rng.uniform(raw - 2 * reach, raw + 2 * reach, 40), 2), 5),
+                np.repeat([*edges, *near_edges], 3),
+            ]
+        )
+    )
+    for r, h in [(raw, reach), (raw, 1e-12), (float(v[10]), reach), (raw + 5 * reach, reach)]:
+        assert _count_near(v, r, h) == np.count_nonzero(np.abs(v - r) <= h)
 
 
 def test_a_temperature_spread_over_its_span_keeps_every_knot() -> None:
