@@ -13,10 +13,12 @@ from numpy.typing import NDArray
 
 import accelcore
 from accelcore import calibrate, simulate
+from accelcore._accelcore import first_order_lag
 from accelcore.errors import TemperatureRangeWarning
 from accelcore.input.session import Session
-from accelcore.model import base_terms
+from accelcore.model import Basis, Term, base_terms
 from accelcore.result.calibration import Calibration
+from accelcore.result.compensator import held_at_range
 from accelcore.simulate import effects as se
 
 FloatArray = NDArray[np.float64]
@@ -150,7 +152,7 @@ def test_compensation_matches_the_model_formula(
     fitted: tuple[simulate.SimulatedArrays, Calibration],
 ) -> None:
     """Base model: a = (v - o0 - o1 dT) / (s0 + s1 dT) per axis, also outside the range
-    (extrapolated, never clamped). Same double operations up to order: 1e-12 relative."""
+    (its terms are linear: extrapolated). Same double operations up to order: 1e-12 relative."""
     _, cal = fitted
     temp = np.array([-20.0, 0.0, 25.0, 47.5, 60.0, 85.0])
     raw = np.array([[1.50, 1.48, 1.85]] * temp.size) + np.linspace(-0.3, 0.3, temp.size)[:, None]
@@ -161,6 +163,49 @@ def test_compensation_matches_the_model_formula(
         o0, o1, s0, s1 = cal.axes[a].coefficients
         expected = (raw[:, i] - o0 - o1 * dt) / (s0 + s1 * dt)
         np.testing.assert_allclose(acc[:, i], expected, rtol=1e-12, atol=0)
+
+
+def test_curvature_is_held_at_the_range_s_edge_outside_it() -> None:
+    """Outside the fitted range, the powers of order 2 and more (a lag's too) take their
+    value at the range's edge; the linear terms extrapolate; inside, nothing changes.
+
+    Fitted over 15…35 °C (a narrow sweep, as a user might run); written out per axis as
+    a = (v - o(T)) / s(T) with the curvature read at clip(T). Same double operations up
+    to order: 1e-12 relative.
+    """
+    sim = simulate.arrays(
+        "ADXL335", seed=7, duration_h=1.0, t_start_c=15.0, t_end_c=35.0, cool_back=True
+    )
+    terms = {
+        a: (
+            *base_terms(a),
+            Term("offset", "dT^2"),
+            Term("offset", "dT^3"),
+            Term("gain", "dT^2", source=a),
+            Term("offset", "lag(60):dT^2"),
+        )
+        for a in AXES
+    }
+    cal = calibrate(session_of(sim), terms=terms)
+    lo, hi = cal.temperature_range_c
+    assert 14.0 < lo < 16.0 and 34.0 < hi < 36.0  # the narrow sweep
+    time_s = np.arange(40.0) * 100.0  # 100 s apart: the lag of 60 s mostly settles
+    temp = np.concatenate([np.linspace(lo, hi, 10), np.linspace(-10.0, 60.0, 30)])
+    raw = np.tile([1.50, 1.48, 1.85], (temp.size, 1)) + 0.01 * np.sin(np.arange(temp.size))[:, None]
+    with pytest.warns(TemperatureRangeWarning, match="held at the range's edge"):
+        acc = cal.compensate(raw, temp, time_s)
+    lagged = np.clip(first_order_lag(time_s, temp, 60.0), lo, hi) - cal.t_ref_c
+    dt, held = temp - cal.t_ref_c, np.clip(temp, lo, hi) - cal.t_ref_c
+    for i, a in enumerate(AXES):
+        m = cal.axes[a]
+        offset = m.value("offset", "1")[0] + m.value("offset", "dT^1")[0] * dt
+        offset += m.value("offset", "dT^2")[0] * held**2 + m.value("offset", "dT^3")[0] * held**3
+        offset += m.value("offset", "lag(60):dT^2")[0] * lagged**2
+        gain = m.value("gain", "1", a)[0] + m.value("gain", "dT^1", a)[0] * dt
+        gain += m.value("gain", "dT^2", a)[0] * held**2
+        np.testing.assert_allclose(acc[:, i], (raw[:, i] - offset) / gain, rtol=1e-12, atol=0)
+    assert held_at_range(Basis.parse("dT^2")) and held_at_range(Basis.parse("lag(60):dT^3"))
+    assert not any(map(held_at_range, map(Basis.parse, ["dT^1", "lag(60):dT^1", "hinge(5):dT^1"])))
 
 
 # --------------------------------------------------------------------------- range warnings

@@ -170,7 +170,10 @@ class Calibration:
     window_c : tuple of float
         Temperature window the data was taken from, °C.
     temperature_range_c : tuple of float
-        Range of temperatures actually fitted, °C; compensation outside it warns.
+        Range of temperatures actually fitted, °C; compensation outside it warns,
+        extrapolates the linear terms and holds the powers of the temperature of
+        order 2 and more at the range's edge
+        (:func:`accelcore.result.compensator.held_at_range`).
         NaN, NaN for a session that logged no temperature (a calibration at one
         temperature: :attr:`has_temperature` is False).
     axes : dict of str to AxisModel
@@ -363,7 +366,8 @@ class Calibration:
         -----
         TemperatureRangeWarning
             When a temperature lies outside :attr:`temperature_range_c`; the
-            model is then extrapolated, never clamped.
+            model's linear terms are then extrapolated, its curvature (powers of
+            the temperature of order 2 and more) held at the range's edge.
         """
         return self.compensator(warn_stacklevel=4).push(raw, temp_c, time_s, extras)
 
