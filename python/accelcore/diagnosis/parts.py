@@ -157,7 +157,8 @@ def one_way(
     Legs shorter than :data:`.observables.MIN_LEG_S` join a neighbour: six 10 min runs
     that heat for 4 min and cool back for 4 had one leg each, "heating", and were said
     to only heat. The way back counts when the samples that run it travel at least
-    :data:`OTHER_WAY_SHARE` of the way the legs run.
+    :data:`OTHER_WAY_SHARE` of the way the others run, whatever the legs' kinds: a
+    4 h heating ramp that ends cooling 2 °C in 7 min (a leg of its own) runs one way.
 
     On a ramp, a die that lags the logged temperature by ``tau`` reads the temperature
     ``tau·dT/dt`` behind: at one rate that is a shift, which the offset and its tempco
@@ -167,22 +168,27 @@ def one_way(
     on a cooling session).
     """
     kinds = set(leg_kinds.values()) - {"steady"}
-    if len(kinds) != 1:
+    if not kinds:
         return None
-    way, other = ("rises", "cools") if kinds == {"heating"} else ("falls", "heats")
     steps = np.diff(elapsed_s) if elapsed_s is not None else np.zeros(0)
     interval_s = float(np.median(steps[steps > 0])) if np.any(steps > 0) else 0.0
     if rate_c_per_min is not None and interval_s > 0:
-        sign = 1.0 if way == "rises" else -1.0
-        moved = sign * np.asarray(rate_c_per_min) * (interval_s / 60.0)
-        there = float(moved[moved > 0].sum())
-        back = float(-moved[moved < 0].sum())
-        if there > 0 and back >= OTHER_WAY_SHARE * there:
+        # The way the samples travel most; the other counts from a quarter of it (a
+        # 7 min tail that cools 2 °C after a 4 h heating ramp is a leg, not a cycle).
+        moved = np.asarray(rate_c_per_min) * (interval_s / 60.0)
+        up, down = float(moved[moved > 0].sum()), float(-moved[moved < 0].sum())
+        there, back = max(up, down), min(up, down)
+        if there <= 0 or back >= OTHER_WAY_SHARE * there:
             return None
+        kinds = {"heating" if up >= down else "cooling"}
+    elif len(kinds) != 1:
+        return None
+    way, other = ("rises", "cools") if kinds == {"heating"} else ("falls", "heats")
     return (
         f"the temperature only {way} in this session: a lag of the die behind the logged "
         "temperature shows only where a ramp starts or stops (along a ramp at one rate it "
         "is a shift of the temperature, which the offset's tempco absorbs), and no held-out "
-        f"fold here runs the other way; a session that {other} sees it whole: log a cycle "
-        "that heats and cools back"
+        f"fold here runs the other way (a term in dT/dt is fitted on one sign of it and "
+        f"carried to the other unchecked); a session that {other} sees it whole: log a "
+        "cycle that heats and cools back"
     )

@@ -38,6 +38,7 @@ from accelcore.model import AXES, Decay, RunStep
 from accelcore.result.calibration import Calibration
 
 from . import search
+from .base_span import base_spanned
 from .between import cross_given_back, cross_left_out, hold_cross, one_run_caveats
 from .ends import improved_calibration, starting_point, usable_extras
 from .engine import Engine
@@ -482,7 +483,7 @@ def diagnose(
             f"the temperature spans {span:.2f} °C (less than {MIN_TEMPERATURE_SPAN_C:g} °C): no "
             "temperature-driven effect is tried or reported"
         )
-    elif "thermal_lag" in tried and (caveat := one_way(eng.leg_kinds, eng.rate, eng.elapsed_s)):
+    elif caveat := one_way(eng.leg_kinds, eng.rate, eng.elapsed_s):
         warn.append(caveat)
     if checked is not None:
         quality = checked.result()
@@ -532,6 +533,7 @@ def diagnose(
     elif held_cross and not any(set(s.cross) & set(sources[a]) for a, s in selection.specs.items()):
         warn.append(cross_left_out(selection.cand_rows, rules.min_improvement))
     warn = [c.text(added) for c in confounded] + warn + selection.notes
+    warn += [s.text() for s in base_spanned(eng, confounded, confound_r, added)]
     warn += one_run_caveats(eng, selection.steps)
     improved = improved_calibration(base, eng, selection.specs, selection.steps)
     resid = {a: eng.residuals(a, selection.specs[a].terms(a))[0] for a in AXES}
