@@ -18,7 +18,7 @@ from accelcore.errors import TemperatureRangeWarning
 from accelcore.input.session import Session
 from accelcore.model import Basis, Term, base_terms
 from accelcore.result.calibration import Calibration
-from accelcore.result.compensator import held_at_range
+from accelcore.result.compensator import continued_beyond_range
 from accelcore.simulate import effects as se
 
 FloatArray = NDArray[np.float64]
@@ -165,13 +165,20 @@ def test_compensation_matches_the_model_formula(
         np.testing.assert_allclose(acc[:, i], expected, rtol=1e-12, atol=0)
 
 
-def test_curvature_is_held_at_the_range_s_edge_outside_it() -> None:
-    """Outside the fitted range, the powers of order 2 and more (a lag's too) take their
-    value at the range's edge; the linear terms extrapolate; inside, nothing changes.
+def _continued(x: FloatArray, lo: float, hi: float, k: int) -> FloatArray:
+    """``x^k`` inside ``lo…hi`` (``x`` from T_ref), its tangent at the nearer edge beyond."""
+    edge = np.clip(x, lo, hi)
+    return np.asarray(edge**k + k * edge ** (k - 1) * (x - edge))
+
+
+def test_curvature_continues_along_its_tangent_beyond_the_range() -> None:
+    """Beyond the fitted range, the powers of order 2 and more (a lag's too) go on as
+    their tangent at the range's edge; the linear terms extrapolate; inside, nothing
+    changes.
 
     Fitted over 15…35 °C (a narrow sweep, as a user might run); written out per axis as
-    a = (v - o(T)) / s(T) with the curvature read at clip(T). Same double operations up
-    to order: 1e-12 relative.
+    a = (v - o(T)) / s(T) with each curvature term continued from the edge. Same double
+    operations up to order: 1e-12 relative.
     """
     sim = simulate.arrays(
         "ADXL335", seed=7, duration_h=1.0, t_start_c=15.0, t_end_c=35.0, cool_back=True
@@ -192,20 +199,25 @@ def test_curvature_is_held_at_the_range_s_edge_outside_it() -> None:
     time_s = np.arange(40.0) * 100.0  # 100 s apart: the lag of 60 s mostly settles
     temp = np.concatenate([np.linspace(lo, hi, 10), np.linspace(-10.0, 60.0, 30)])
     raw = np.tile([1.50, 1.48, 1.85], (temp.size, 1)) + 0.01 * np.sin(np.arange(temp.size))[:, None]
-    with pytest.warns(TemperatureRangeWarning, match="held at the range's edge"):
+    with pytest.warns(TemperatureRangeWarning, match="along its tangent at the range's edge"):
         acc = cal.compensate(raw, temp, time_s)
-    lagged = np.clip(first_order_lag(time_s, temp, 60.0), lo, hi) - cal.t_ref_c
-    dt, held = temp - cal.t_ref_c, np.clip(temp, lo, hi) - cal.t_ref_c
+    t0 = cal.t_ref_c
+    lagged = first_order_lag(time_s, temp, 60.0) - t0
+    dt, lo0, hi0 = temp - t0, lo - t0, hi - t0
     for i, a in enumerate(AXES):
         m = cal.axes[a]
         offset = m.value("offset", "1")[0] + m.value("offset", "dT^1")[0] * dt
-        offset += m.value("offset", "dT^2")[0] * held**2 + m.value("offset", "dT^3")[0] * held**3
-        offset += m.value("offset", "lag(60):dT^2")[0] * lagged**2
+        offset += m.value("offset", "dT^2")[0] * _continued(dt, lo0, hi0, 2)
+        offset += m.value("offset", "dT^3")[0] * _continued(dt, lo0, hi0, 3)
+        offset += m.value("offset", "lag(60):dT^2")[0] * _continued(lagged, lo0, hi0, 2)
         gain = m.value("gain", "1", a)[0] + m.value("gain", "dT^1", a)[0] * dt
-        gain += m.value("gain", "dT^2", a)[0] * held**2
+        gain += m.value("gain", "dT^2", a)[0] * _continued(dt, lo0, hi0, 2)
         np.testing.assert_allclose(acc[:, i], (raw[:, i] - offset) / gain, rtol=1e-12, atol=0)
-    assert held_at_range(Basis.parse("dT^2")) and held_at_range(Basis.parse("lag(60):dT^3"))
-    assert not any(map(held_at_range, map(Basis.parse, ["dT^1", "lag(60):dT^1", "hinge(5):dT^1"])))
+    assert continued_beyond_range(Basis.parse("dT^2"))
+    assert continued_beyond_range(Basis.parse("lag(60):dT^3"))
+    assert not any(
+        map(continued_beyond_range, map(Basis.parse, ["dT^1", "lag(60):dT^1", "hinge(5):dT^1"]))
+    )
 
 
 # --------------------------------------------------------------------------- range warnings

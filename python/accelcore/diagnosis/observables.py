@@ -146,7 +146,7 @@ def residuals(calibration: Calibration, session: Session) -> pd.DataFrame:
     time and extra columns), the gravity its orientation implies subtracted,
     and the result given in mg; ``err_norm_mg`` is ``|a| - 1 g`` in mg.
     Samples outside the calibrated temperature range are included (the model
-    extrapolated, its curvature held at the range's edge, without the range warning)
+    extrapolated, its curvature along its tangent at the range's edge, without the range warning)
     and flagged by ``in_range``.
 
     Parameters

@@ -171,9 +171,9 @@ class Calibration:
         Temperature window the data was taken from, °C.
     temperature_range_c : tuple of float
         Range of temperatures actually fitted, °C; compensation outside it warns,
-        extrapolates the linear terms and holds the powers of the temperature of
-        order 2 and more at the range's edge
-        (:func:`accelcore.result.compensator.held_at_range`).
+        extrapolates the linear terms and continues the powers of the temperature
+        of order 2 and more along their tangent at the range's edge
+        (:func:`accelcore.result.compensator.continued_beyond_range`).
         NaN, NaN for a session that logged no temperature (a calibration at one
         temperature: :attr:`has_temperature` is False).
     axes : dict of str to AxisModel
@@ -367,7 +367,8 @@ class Calibration:
         TemperatureRangeWarning
             When a temperature lies outside :attr:`temperature_range_c`; the
             model's linear terms are then extrapolated, its curvature (powers of
-            the temperature of order 2 and more) held at the range's edge.
+            the temperature of order 2 and more) continued along its tangent at the
+            range's edge.
         """
         return self.compensator(warn_stacklevel=4).push(raw, temp_c, time_s, extras)
 

@@ -20,7 +20,7 @@ from accelcore.model import (
     TemperatureRate,
 )
 
-__all__ = ["Compensator", "held_at_range", "needs_temperature"]
+__all__ = ["Compensator", "continued_beyond_range", "needs_temperature"]
 
 #: Most passes of the fixed point that solves a model with terms in the force (g_b^2).
 MAX_FORCE_PASSES = 20
@@ -45,16 +45,19 @@ def needs_temperature(basis: Basis) -> bool:
     return inner.temperature_order is not None or isinstance(inner, TemperatureRate)
 
 
-def held_at_range(basis: Basis) -> bool:
-    """Tell whether a basis is held at the calibrated range's edge outside it.
+def continued_beyond_range(basis: Basis) -> bool:
+    """Tell whether a basis continues along its tangent beyond the calibrated range.
 
     The temperature's powers of order 2 and more (curvature, lagged or not): a
-    polynomial fitted over a range says nothing beyond it, and its high orders grow
-    fastest there (a 5th-order offset fitted over 15…35 °C was off by 47 mg at 5 and
-    55 °C, where the line alone was off by 7). Outside the range they take their
-    value at its edge, as PX4's and ArduPilot's thermal corrections hold theirs (those
-    clamp the whole polynomial); the linear terms (tempco, a lag's line) and the
-    hinges of a piecewise-linear function, lines beyond their last knot, extrapolate.
+    polynomial fitted over a range says little beyond it, and its high orders grow
+    fastest there (a 4th/5th-order offset fitted over 15…35 °C was 47 mg off at 5 and
+    55 °C, where the line alone was 7 mg off). Beyond the range's edge each such power
+    takes its value and slope at the edge and goes on as a line, so the curvature
+    continues as its tangent: a smooth (C1) extension that grows no faster than a
+    line. (PX4 and ArduPilot hold their whole polynomial at its end value; held so,
+    a true cubic fitted over −5…46 °C was 5.8 mg off up to 62 °C, continued 2.3, the
+    line alone 5.9.) The linear terms and the hinges of a piecewise-linear function,
+    lines beyond their last knot, extrapolate as they are.
 
     Parameters
     ----------
@@ -67,16 +70,16 @@ def held_at_range(basis: Basis) -> bool:
     return isinstance(basis, (TemperaturePower, LaggedTemperaturePower)) and basis.order >= 2
 
 
-class _HeldFeatures:
-    """A chunk's features with the temperature (and its lags) held within a range."""
-
-    def __init__(self, features: Features, lo: float, hi: float) -> None:
-        self._features, self._lo, self._hi = features, lo, hi
-        self.t_ref_c = features.t_ref_c
-        self.temperature_c = np.clip(features.temperature_c, lo, hi)
-
-    def lagged_temperature_c(self, tau_s: float) -> NDArray[np.float64]:
-        return np.clip(self._features.lagged_temperature_c(tau_s), self._lo, self._hi)
+def _continued_power(
+    x: NDArray[np.float64], lo: float, hi: float, t_ref_c: float, order: int
+) -> NDArray[np.float64]:
+    """``(x - t_ref_c)^order`` inside ``lo…hi``, its tangent at the edge beyond."""
+    out = np.asarray((x - t_ref_c) ** order)
+    for edge, beyond in ((hi, x > hi), (lo, x < lo)):
+        if np.any(beyond):
+            e = edge - t_ref_c
+            out = np.where(beyond, e**order + order * e ** (order - 1) * (x - edge), out)
+    return out
 
 
 class _CarriedFeatures(Features):
@@ -187,16 +190,7 @@ class Compensator:
         # Each sample iterates until it settles itself, so chunks do not matter.
         feats.gravity_g = np.zeros((n, 3))
         if self._bases:
-            lo, hi = self._range_c
-            held: Features = feats
-            if lo <= hi and any(map(held_at_range, self._bases)):
-                held = _HeldFeatures(feats, lo, hi)  # type: ignore[assignment]
-            basis = np.column_stack(
-                [
-                    b.evaluate(held if held_at_range(b) else feats, self._references)
-                    for b in self._bases
-                ]
-            )
+            basis = np.column_stack([self._column(b, feats) for b in self._bases])
         else:
             basis = np.zeros((n, 0))
         g = _compensate(raw_a, np.ascontiguousarray(basis), self._offset, self._gain)
@@ -217,6 +211,17 @@ class Compensator:
         self.n_rows += n
         return g
 
+    def _column(self, basis: Basis, feats: Features) -> NDArray[np.float64]:
+        """One basis over the chunk; a curvature beyond the range along its tangent."""
+        lo, hi = self._range_c
+        if not (lo <= hi and continued_beyond_range(basis)):
+            return basis.evaluate(feats, self._references)
+        if isinstance(basis, LaggedTemperaturePower):
+            x = feats.lagged_temperature_c(basis.tau_s)
+            return _continued_power(x, lo, hi, feats.t_ref_c, basis.order)
+        order = basis.temperature_order or 1  # a TemperaturePower (of order 2 or more)
+        return _continued_power(feats.temperature_c, lo, hi, feats.t_ref_c, order)
+
     def _check_range(self, temp: NDArray[np.float64]) -> None:
         finite = temp[np.isfinite(temp)]
         if finite.size == 0:
@@ -231,7 +236,7 @@ class Compensator:
                     f"{outside} of {finite.size} samples lie outside the calibrated range "
                     f"{lo:.2f}…{hi:.2f} °C (data spans {finite.min():.2f}…{finite.max():.2f} "
                     "°C); the model is extrapolated there, its curvature (powers of the "
-                    "temperature of order 2 and more) held at the range's edge"
+                    "temperature of order 2 and more) along its tangent at the range's edge"
                 ),
                 stacklevel=self._stacklevel,
             )

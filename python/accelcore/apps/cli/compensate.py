@@ -312,7 +312,8 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
         lo, hi = cal.temperature_range_c
         print(
             f"warning: {n_out_of_range} rows lie outside the calibrated range {lo:.2f}…{hi:.2f} °C;"
-            " the model is extrapolated there, its curvature held at the range's edge",
+            " the model is extrapolated there, its curvature along its tangent at the"
+            " range's edge",
             file=sys.stderr,
         )
     return 0
