@@ -60,7 +60,7 @@ def test_a_lag_the_gains_span_is_said(monkeypatch: pytest.MonkeyPatch) -> None:
     d = diagnose(_chained(monkeypatch))
     said = [w for w in d.warnings if w.startswith("thermal_lag cannot be told from the base")]
     assert len(said) == 1, d.warnings
-    assert "axes x,y,z" in said[0]
+    assert "axes x,y,z" in said[0] and "through the gains" in said[0]
     assert "thermal_lag" not in d.effects
 
 

@@ -31,9 +31,11 @@ from accelcore.diagnosis.between import RunLevelTest, between_runs_p
 from accelcore.diagnosis.ends import starting_point
 from accelcore.diagnosis.engine import Engine
 from accelcore.diagnosis.space import Spec
+from accelcore.input.session import Session
 from accelcore.model import AXES
 from accelcore.simulate import effects as se
 from accelcore.simulate import events as sev
+from accelcore.simulate.chain import Effect
 
 HOURS = 0.5
 
@@ -143,3 +145,40 @@ def test_a_tilted_run_on_a_misaligned_part(
     # The floor is the noise of a 2 Hz sample (0.60 mg); what two 0.5 h fits leave of
     # a misalignment and a tilt is well under 5 % of it.
     assert out.diagnosed_mg <= 1.05 * out.floor_mg, (out.diagnosed_mg, out.floor_mg)
+
+
+def _cooling(events: tuple[Effect, ...]) -> Session:
+    """A 1 h cool-down 65 -> -2 °C after a 10 min soak; a part with a 60 s lag."""
+    sim = simulate.arrays(
+        "ADXL335",
+        seed=1,
+        duration_h=1.0,
+        t_start_c=65.0,
+        t_end_c=-2.0,
+        soak_min=10.0,
+        effects=(se.Misalignment(), se.ThermalLag(60.0), *events),
+    )
+    return Session.from_arrays(
+        [(r.orientation, r.columns) for r in sim.runs],
+        units=sim.units,
+        rate_hz=sim.rate_hz,
+        sensor=sim.sensor,
+        decimation_factor=10,
+    )
+
+
+def test_a_kink_where_the_soak_ends_is_not_a_step() -> None:
+    """The lag's model leaves a kink where the cooling starts; a step there of
+    0.0x mg, with the fit's standard error (independent samples), passed as an event
+    in OZ+ at 635 s. The residual's own correlation (batch means over the engine's
+    blocks) widens that error: no step now."""
+    d = diagnose(_cooling(()))
+    assert "thermal_lag" in d.effects
+    assert not [e for e in d.session_events if str(e["event"]).startswith("step")], d.session_events
+
+
+def test_a_one_mg_knock_in_the_same_session_is_still_a_step() -> None:
+    """The same session with OZ- knocked by 1 mg on every axis at 1800 s: found."""
+    d = diagnose(_cooling((sev.OutputStep("OZ-", 1800.0, 1.0),)))
+    steps = {str(e["event"]) for e in d.session_events if str(e["event"]).startswith("step")}
+    assert len(steps) == 1 and next(iter(steps)).startswith("step in OZ- at 18"), steps

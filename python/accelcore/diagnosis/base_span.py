@@ -36,17 +36,23 @@ FloatArray = NDArray[np.float64]
 class SpannedByBase:
     """An effect whose model column the base model's terms span on some axes."""
 
-    def __init__(self, effect: str, r: float, axes: Sequence[str]) -> None:
+    def __init__(self, effect: str, r: float, axes: Sequence[str], via_gains: bool) -> None:
         self.effect, self.r, self.axes = effect, r, tuple(axes)
+        #: Whether an offset's signature is spanned only with the gain terms' columns.
+        self.via_gains = via_gains
 
     def text(self) -> str:
         """One line: what the session cannot show, and how a session would."""
+        why = (
+            ", through the gains: the runs' course follows their orientations"
+            if self.via_gains
+            else ""
+        )
         return (
             f"{self.effect} cannot be told from the base model's own terms on this data "
             f"(axes {','.join(self.axes)}: its model column is a combination of theirs to "
-            f"R = {self.r:.3f}, as when every run's direction of travel in temperature "
-            "follows its orientation): their coefficients hold its share; log runs that "
-            "each heat and cool back, or soak at several temperatures"
+            f"R = {self.r:.3f}{why}): their coefficients hold its share; log runs that "
+            "each heat and cool back over the whole range, or soak at several temperatures"
         )
 
 
@@ -92,7 +98,7 @@ def base_spanned(
         for axis in p.axes
     }
     sw = np.sqrt(eng.window_weight)
-    found: dict[str, tuple[float, list[str]]] = {}
+    found: dict[str, tuple[float, list[str], bool]] = {}
     for axis in AXES:
         keys = [
             (t.basis, (t.source or "x") if t.kind == "gain" else None)
@@ -101,6 +107,7 @@ def base_spanned(
         span = np.column_stack([win(k) for k in keys]) if keys else np.zeros((t1.size, 0))
         if span.shape[1] == 0 or not np.all(np.isfinite(span)):
             continue
+        offsets = span[:, [k[1] is None for k in keys]]
         for effect, column, own in signatures:
             if (own is not None and own != axis) or (effect, axis) in named:
                 continue
@@ -108,6 +115,8 @@ def base_spanned(
                 continue
             r = _r_on_span(column, span, sw)
             if r > threshold:
-                prev = found.get(effect, (0.0, []))
-                found[effect] = (max(prev[0], r), [*prev[1], axis])
-    return [SpannedByBase(e, r, axes) for e, (r, axes) in found.items() if e not in added]
+                # An offset's signature the offset terms alone do not span: the gains do.
+                gains = own is None and _r_on_span(column, offsets, sw) <= threshold
+                prev = found.get(effect, (0.0, [], False))
+                found[effect] = (max(prev[0], r), [*prev[1], axis], prev[2] or gains)
+    return [SpannedByBase(e, *v) for e, v in found.items() if e not in added]
