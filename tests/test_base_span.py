@@ -19,6 +19,7 @@ from accelcore.diagnosis import diagnose
 from accelcore.input.session import Session
 from accelcore.simulate import effects as se
 from accelcore.simulate import runs as simulate_runs
+from helpers import simulated_session
 
 FloatArray = NDArray[np.float64]
 SIX = ("OX+", "OX-", "OY+", "OY-", "OZ+", "OZ-")
@@ -68,6 +69,6 @@ def test_runs_that_heat_and_cool_back_say_nothing_of_it() -> None:
     sim = simulate.arrays(
         "ADXL335", seed=3, duration_h=0.5, cool_back=True, effects=(se.ThermalLag(60.0),)
     )
-    d = diagnose(_session([(r.orientation, r.columns) for r in sim.runs], sim))
+    d = diagnose(simulated_session(sim))
     assert not any("cannot be told from the base" in w for w in d.warnings), d.warnings
     assert "thermal_lag" in d.effects

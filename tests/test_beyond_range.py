@@ -22,6 +22,7 @@ from accelcore.input.session import Session
 from accelcore.result.calibration import Calibration
 from accelcore.simulate import effects as se
 from accelcore.simulate.chain import RunState, Stage
+from helpers import simulated_session
 
 AXES = ("x", "y", "z")
 
@@ -55,13 +56,7 @@ def _session(seed: int, t_start_c: float, t_end_c: float) -> Session:
         cool_back=True,
         effects=(se.Misalignment(), VShapedTempco()),
     )
-    return Session.from_arrays(
-        [(r.orientation, r.columns) for r in sim.runs],
-        units=sim.units,
-        rate_hz=sim.rate_hz,
-        sensor=sim.sensor,
-        decimation_factor=10,
-    )
+    return simulated_session(sim)
 
 
 def _rms_mg(cal: Calibration, session: Session) -> float:

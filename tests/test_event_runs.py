@@ -36,6 +36,7 @@ from accelcore.model import AXES
 from accelcore.simulate import effects as se
 from accelcore.simulate import events as sev
 from accelcore.simulate.chain import Effect
+from helpers import simulated_session
 
 HOURS = 0.5
 
@@ -158,13 +159,7 @@ def _cooling(events: tuple[Effect, ...]) -> Session:
         soak_min=10.0,
         effects=(se.Misalignment(), se.ThermalLag(60.0), *events),
     )
-    return Session.from_arrays(
-        [(r.orientation, r.columns) for r in sim.runs],
-        units=sim.units,
-        rate_hz=sim.rate_hz,
-        sensor=sim.sensor,
-        decimation_factor=10,
-    )
+    return simulated_session(sim)
 
 
 def test_a_kink_where_the_soak_ends_is_not_a_step() -> None:

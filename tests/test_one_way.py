@@ -20,6 +20,7 @@ from accelcore.diagnosis.parts import one_way
 from accelcore.input.session import Session
 from accelcore.simulate import effects as se
 from accelcore.simulate import runs as simulate_runs
+from helpers import simulated_session
 
 FloatArray = NDArray[np.float64]
 
@@ -95,12 +96,5 @@ def test_a_heating_session_with_a_cooling_tail_says_so(monkeypatch: pytest.Monke
 
     monkeypatch.setattr(simulate_runs, "temperature_profile", heat_then_tail)
     sim = simulate.arrays("ADXL335", seed=1, duration_h=1.0, effects=(se.ThermalLag(90.0),))
-    session = Session.from_arrays(
-        [(r.orientation, r.columns) for r in sim.runs],
-        units=sim.units,
-        rate_hz=sim.rate_hz,
-        sensor=sim.sensor,
-        decimation_factor=10,
-    )
-    d = diagnose(session)
+    d = diagnose(simulated_session(sim))
     assert sum(w.startswith("the temperature only rises") for w in d.warnings) == 1, d.warnings
