@@ -39,7 +39,9 @@ Modules, along the data flow:
   space of one axis;
 - :mod:`~accelcore.diagnosis.stats`: chi-square and t tails, the paired test;
 - :mod:`~accelcore.diagnosis.engine`: parts, blocks and folds; held-out fits;
-- :mod:`~accelcore.diagnosis.search`: variants, the lag time-constant search, confounding;
+- :mod:`~accelcore.diagnosis.search`: variants, the lag time-constant search;
+- :mod:`~accelcore.diagnosis.confounds`: what the session cannot tell apart (pairs of
+  effects, effects the base model's own terms span);
 - :mod:`~accelcore.diagnosis.structure`: the binned check of the final residual;
 - :mod:`~accelcore.diagnosis.parameters`: final fits and added parameters;
 - :mod:`~accelcore.diagnosis.result`: :class:`Diagnosis`, :class:`Step`, :class:`Structure`;

@@ -272,11 +272,11 @@ def _step_holds(
         j = m.terms.index(step)
         var = float(m.covariance[j, j])
         if m.estimated[j] and var > 0:
-            stat += float(m.coefficients[j]) ** 2 / (var * _inflation(eng, a, trial[a]))
+            stat += float(m.coefficients[j]) ** 2 / (var * _variance_inflation(eng, a, trial[a]))
     return corrected_p(chi2_sf(stat, 3), n_windows) < alpha
 
 
-def _inflation(eng: Engine, axis: str, spec: Spec) -> float:
+def _variance_inflation(eng: Engine, axis: str, spec: Spec) -> float:
     """Return how much the residual's own correlation widens a coefficient's variance (>= 1).
 
     The fit's covariance takes the samples' errors as independent; what a model leaves

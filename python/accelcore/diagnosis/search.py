@@ -1,11 +1,11 @@
-"""The search of the diagnosis: variants of each family, the lag time-constant, confounding.
+"""The search of the diagnosis: variants of each family, the lag time-constant.
 
 :func:`variants` lists the variants of one family on one axis (orders, sources,
 extra columns), :func:`search_tau` finds a lag's time constant by held-out error (grid,
 then parabolic steps; :func:`tau_trials` runs the trials in the core when the model's
 columns that follow tau are lags or decays, :func:`search_many` several such searches
-at once on :data:`search_threads` threads), :func:`tau_se` its standard error, and
-:func:`confounding` the pairs of effects this data cannot tell apart.
+at once on :data:`search_threads` threads) and :func:`tau_se` its standard error. What
+the data cannot tell apart is :mod:`.confounds`'.
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ from __future__ import annotations
 import math
 import os
 import weakref
-from collections.abc import Callable, Container, Mapping, Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Container, Sequence
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,10 +24,7 @@ from accelcore.model import (
     AXES,
     Basis,
     Decay,
-    Elapsed,
-    Extra,
     LaggedTemperaturePower,
-    TemperaturePower,
     Term,
 )
 
@@ -35,10 +32,8 @@ from .engine import CV, Engine
 from .generic import generic_variants
 from .observables import MIN_LEG_S
 from .space import Spec, with_cross, with_tau
-from .structure import MIN_TEMPERATURE_SPAN_C, temperature_span_c
 
 __all__ = [
-    "confounding",
     "cross_sources",
     "lag_range_s",
     "profile_se",
@@ -111,8 +106,6 @@ def with_warm_up(spec: Spec, tau: float) -> Spec:
 
 
 FloatArray = NDArray[np.float64]
-
-_CONFOUND_TAU_S = 120.0
 
 
 def cross_sources(eng: Engine, axis: str) -> tuple[str, ...]:
@@ -474,126 +467,3 @@ def profile_se(eng: Engine, axis: str, make: Callable[[float], Spec], tau: float
     p = len(s0.terms)
     sigma2 = s0.sse_in / max(eng.n - p - 1, 1)
     return math.sqrt(2.0 * sigma2 / curv) if curv > 0 else math.nan
-
-
-#: How plausible each signature is as the cause of a thermal calibration's residual,
-#: most plausible first: the base model's temperature line, then the temperature
-#: effects of the part, then geometry, then the history of the run, then anything logged.
-_PLAUSIBILITY = (
-    "temperature (linear tempco)",
-    "offset_curvature",
-    "sensitivity_curvature",
-    "misalignment",
-    "thermal_lag",
-    "drift",
-    "extra",
-)
-
-
-def _family(signature: str) -> str:
-    """Return the selection's family name for a confounding signature."""
-    if signature.startswith("misalignment"):
-        return "misalignment"
-    return signature
-
-
-def _rank(signature: str) -> int:
-    if signature in _PLAUSIBILITY:
-        return _PLAUSIBILITY.index(signature)
-    head = signature.split(" (")[0].split(":")[0]
-    return _PLAUSIBILITY.index(head) if head in _PLAUSIBILITY else len(_PLAUSIBILITY)
-
-
-@dataclass(frozen=True)
-class Confounded:
-    """Two effects whose model columns the data cannot tell apart.
-
-    Attributes
-    ----------
-    first, second : str
-        The two signatures, the physically more plausible one first.
-    r : float
-        Largest |correlation| of their model columns over the axes.
-    axes : tuple of str
-        Axes where it exceeds the threshold.
-    """
-
-    first: str
-    second: str
-    r: float
-    axes: tuple[str, ...]
-
-    def text(self, added: Sequence[str]) -> str:
-        """Say, in one line, which of the two the diagnosed model holds (``added``: effects)."""
-        held = [
-            s for s in (self.first, self.second) if s == _PLAUSIBILITY[0] or _family(s) in added
-        ]
-        pair = (
-            f"{self.first} and {self.second} cannot be told apart on this data "
-            f"(|r| = {self.r:.3f} between their model columns, axes {','.join(self.axes)})"
-        )
-        advice = (
-            "log a profile that separates them "
-            "(e.g. heat and cool back, or soak at several temperatures)"
-        )
-        if len(held) == 2:
-            return f"{pair}: the model holds both, their coefficients trade off; {advice}"
-        if len(held) == 1:
-            other = self.second if held[0] == self.first else self.first
-            why = "the base model" if held[0] == _PLAUSIBILITY[0] else "it cut the held-out error"
-            return f"{pair}: the model attributes it to {held[0]} ({why}), not to {other}; {advice}"
-        return (
-            f"{pair}: neither was added; were one needed, {self.first} is the physically "
-            f"plausible one; {advice}"
-        )
-
-
-def confounding(
-    eng: Engine, specs: Mapping[str, Spec], extras: Sequence[str], threshold: float
-) -> list[Confounded]:
-    """Pairs of effects whose signature columns correlate beyond ``threshold``."""
-    found: dict[tuple[str, str], tuple[float, list[str]]] = {}
-    # On the engine's window means (what its fits see): the columns' correlations to
-    # a few 1e-4, at a thirtieth of the rows.
-    w = eng.window_weight
-    moves = temperature_span_c(eng) >= MIN_TEMPERATURE_SPAN_C
-    # Every axis' signatures, each column once, with the axes it is a signature on.
-    win = eng._window_column
-    sig: list[tuple[str, FloatArray, Sequence[str]]] = [("drift", win((Elapsed(), None)), AXES)]
-    if moves:  # a temperature that does not move confounds nothing
-        t1, t2 = win((TemperaturePower(1), None)), win((TemperaturePower(2), None))
-        lag = win((LaggedTemperaturePower(_CONFOUND_TAU_S, 1), None)) - t1
-        sig += [
-            ("temperature (linear tempco)", t1, AXES),
-            ("offset_curvature", t2, AXES),
-            ("thermal_lag", lag, AXES),
-        ]
-    for b_i, b in enumerate(AXES):
-        if eng.gravity_values[b_i] < 2:
-            continue
-        g = eng.window_gravity[:, b_i]
-        if moves:
-            sig.append(("sensitivity_curvature", win((TemperaturePower(2), b)), (b,)))
-        sig.append((f"misalignment (gravity on {b})", g, [a for a in AXES if a != b]))
-    sig += [(f"extra:{e}", win((Extra(e), None)), AXES) for e in extras]
-    # Weighted correlations of all of them from one product of the centred columns.
-    cols = np.column_stack([col for _, col, _ in sig])
-    cols = cols - (w @ cols) / w.sum()
-    cols *= np.sqrt(w)[:, None]
-    norms = np.sqrt(np.einsum("ij,ij->j", cols, cols))
-    live = norms > 0
-    scale = np.where(live, norms, 1.0)
-    gram = (cols.T @ cols) / scale[:, None] / scale
-    for a in AXES:
-        own = sorted(
-            ((name, j) for j, (name, _, axes) in enumerate(sig) if a in axes and live[j]),
-            key=lambda item: _rank(item[0]),
-        )
-        for i, (first, fi) in enumerate(own):
-            for second, sj in own[i + 1 :]:
-                r = float(gram[fi, sj])
-                if abs(r) > threshold:
-                    pair = (first, second)
-                    prev = found.get(pair, (0.0, []))
-                    found[pair] = (max(prev[0], abs(r)), [*prev[1], a])
-    return [Confounded(p1, p2, r, tuple(axes)) for (p1, p2), (r, axes) in found.items()]

@@ -38,8 +38,8 @@ from accelcore.model import AXES, Decay, RunStep
 from accelcore.result.calibration import Calibration
 
 from . import search
-from .base_span import base_spanned
 from .between import cross_given_back, cross_left_out, hold_cross, one_run_caveats
+from .confounds import base_spanned, confounding
 from .ends import improved_calibration, starting_point, usable_extras
 from .engine import Engine
 from .events import event_corrections, find_run_events, level_runs, levels_on_every_axis
@@ -57,7 +57,7 @@ from .scope import (
     not_explained_by,
     without_findings,
 )
-from .search import confounding, variants
+from .search import variants
 from .space import FAMILIES, Spec, is_event, with_tau
 from .stats import pooled_rms, wrms
 from .structure import (

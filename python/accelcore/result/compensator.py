@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping, Sequence
+from typing import TypeGuard
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -45,7 +46,9 @@ def needs_temperature(basis: Basis) -> bool:
     return inner.temperature_order is not None or isinstance(inner, TemperatureRate)
 
 
-def continued_beyond_range(basis: Basis) -> bool:
+def continued_beyond_range(
+    basis: Basis,
+) -> TypeGuard[TemperaturePower | LaggedTemperaturePower]:
     """Tell whether a basis continues along its tangent beyond the calibrated range.
 
     The temperature's powers of order 2 and more (curvature, lagged or not): a
@@ -216,11 +219,12 @@ class Compensator:
         lo, hi = self._range_c
         if not (lo <= hi and continued_beyond_range(basis)):
             return basis.evaluate(feats, self._references)
-        if isinstance(basis, LaggedTemperaturePower):
-            x = feats.lagged_temperature_c(basis.tau_s)
-            return _continued_power(x, lo, hi, feats.t_ref_c, basis.order)
-        order = basis.temperature_order or 1  # a TemperaturePower (of order 2 or more)
-        return _continued_power(feats.temperature_c, lo, hi, feats.t_ref_c, order)
+        x = (
+            feats.lagged_temperature_c(basis.tau_s)
+            if isinstance(basis, LaggedTemperaturePower)
+            else feats.temperature_c
+        )
+        return _continued_power(x, lo, hi, feats.t_ref_c, basis.order)
 
     def _check_range(self, temp: NDArray[np.float64]) -> None:
         finite = temp[np.isfinite(temp)]
