@@ -368,8 +368,11 @@ impl TemperatureBinner {
             loop {
                 let (t, temp, row) = (time_s[j], temperature_c[j], row_at(j));
                 k += 1.0;
-                mean_t += (t - mean_t) / k;
-                mean_temp += (temp - mean_temp) / k;
+                // One division per row, its reciprocal multiplies every update
+                // (the divider is the loop's bottleneck otherwise; `add` does the same).
+                let inv = 1.0 / k;
+                mean_t += (t - mean_t) * inv;
+                mean_temp += (temp - mean_temp) * inv;
                 for (((s, m), q), &x) in shift
                     .iter()
                     .zip(mean.iter_mut())
@@ -378,7 +381,7 @@ impl TemperatureBinner {
                 {
                     let y = x - s;
                     let delta = y - *m;
-                    *m += delta / k;
+                    *m += delta * inv;
                     *q += delta * (y - *m);
                 }
                 j += 1;
@@ -429,10 +432,10 @@ impl TemperatureBinner {
         let stride = stride(nc);
         let count = &mut self.count[bin];
         *count += 1;
-        let n = *count as f64;
+        let inv = 1.0 / *count as f64;
         let a = &mut self.acc[bin * stride..(bin + 1) * stride];
-        a[0] += (t - a[0]) / n;
-        a[1] += (temp - a[1]) / n;
+        a[0] += (t - a[0]) * inv;
+        a[1] += (temp - a[1]) * inv;
         let (shift, rest) = a[2..].split_at_mut(nc);
         let (mean, m2) = rest.split_at_mut(nc);
         if *count == 1 {
@@ -446,7 +449,7 @@ impl TemperatureBinner {
         {
             let y = x - k;
             let delta = y - *m;
-            *m += delta / n;
+            *m += delta * inv;
             *s += delta * (y - *m);
         }
     }
