@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from accelcore import Session, calibrate, simulate
-from accelcore.input.quality import excluded_blocks
+from accelcore.input.quality import check_session, excluded_blocks
 
 SENSOR = "ADXL335"
 
@@ -89,3 +89,39 @@ def test_clipped_output_is_left_out(sim: simulate.SimulatedArrays) -> None:
     assert abs(p_off - truth) > 20 * p_off_se
     paper = calibrate(session, method="paper")
     assert any("clipped block(s)" in n for n in paper.notes)
+
+
+@pytest.fixture(scope="module")
+def coarse() -> simulate.SimulatedArrays:
+    # A 12-bit ADC over 20 V: 4.9 mV = 16 mg per code, against 1.3-2.7 mg of noise,
+    # so the output sits on one code for whole blocks (the 16-bit default: 1 mg).
+    return simulate.arrays(
+        SENSOR, seed=41, duration_h=1.0, orientations=("OZ+", "OZ-", "OX+"), adc_bits=12
+    )
+
+
+def test_coarse_codes_are_neither_a_rail_nor_spikes(coarse: simulate.SimulatedArrays) -> None:
+    session = _session(_columns(coarse))
+    for run in session.runs:
+        # Before: 6014, 7200 and 5992 blocks were left out as clipped (every code the
+        # output held for a block was taken for a rail), and 84-101 as spikes.
+        mask, n_spikes, n_clipped = excluded_blocks(run)
+        assert (n_spikes, n_clipped) == (0, 0) and not mask.any()
+    assert not any(i.kind in {"clipping", "outliers"} for i in check_session(session, warn=False))
+    assert not any("left out" in n for n in calibrate(session).notes)
+
+
+def test_spikes_on_coarse_codes_are_still_found(coarse: simulate.SimulatedArrays) -> None:
+    cols = _columns(coarse)
+    z = cols["OZ+"]["z"]
+    rng = np.random.default_rng(3)
+    starts = rng.choice(np.arange(100, z.size - 100, 50), size=60, replace=False)
+    for s in starts:  # 60 bursts of 5 raw samples, +0.3 V (1 g, 61 codes): a loose connector
+        z[s : s + 5] += 0.3
+    run = _session(cols).runs[0]
+    mask, n_spikes, n_clipped = excluded_blocks(run)
+    # Each burst lifts one block, or two where it straddles a block's edge; the
+    # threshold on coarse codes (8 x step/sqrt(12), 2.3 codes) is far below 61 codes.
+    assert 60 <= n_spikes <= 120 and n_clipped == 0
+    hit = {int(s) // 10 for s in starts} | {(int(s) + 4) // 10 for s in starts}
+    assert set(np.flatnonzero(mask)) <= hit

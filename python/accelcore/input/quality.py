@@ -115,10 +115,15 @@ def check_session(
     clip_fraction, clip_min_samples, clip_min_blocks : float, int, int
         A channel is reported as clipped when at least ``clip_min_samples`` and
         ``clip_fraction`` of its raw rows sit exactly at its minimum or maximum,
-        and at least ``clip_min_blocks`` decimated blocks lie wholly on that value.
+        and at least ``clip_min_blocks`` decimated blocks lie wholly on that value,
+        unless the channel's output levels are coarser than its noise (a quantiser
+        whose step exceeds the noise holds every code for whole blocks, its
+        extremes too; a rail on such a channel is not told from its codes).
     outlier_z, outlier_window : float, int
         A decimated block whose robust z-score against a running median of
-        ``outlier_window`` blocks exceeds ``outlier_z`` is an outlier.
+        ``outlier_window`` blocks exceeds ``outlier_z`` is an outlier (on a channel
+        coarser than its noise, the noise is taken as at least the quantiser's,
+        step/sqrt(12), so a block crossing to the next code is none).
     step_z, step_window : float, int
         A step is a jump between the medians of the ``step_window`` blocks
         after and before a point, less the local drift (from the neighbouring
@@ -264,7 +269,7 @@ def _check_clipping(
             if n < threshold:
                 continue
             on_rail = np.abs(run.output[:, c] - value) <= 1e-12 * max(1.0, abs(value))
-            if int(np.count_nonzero(on_rail)) >= min_blocks:
+            if int(np.count_nonzero(on_rail)) >= min_blocks and not _coarse_levels(run, c):
                 out.append(
                     QualityIssue(
                         "clipping",
@@ -278,6 +283,41 @@ def _check_clipping(
                     )
                 )
     return out
+
+
+def _level_grid(y: NDArray[np.float64], count: NDArray[np.int64]) -> float | None:
+    """Least positive difference between the distinct means of a run's full blocks.
+
+    A quantiser puts the mean of ``k`` samples on a grid of its step / ``k``; on
+    data that are not quantised the grid is as fine as float rounding (ignored
+    below 1e-9 of the values). ``None`` when the full blocks hold one value.
+    """
+    full = count == count.max() if count.size else np.zeros(0, dtype=bool)
+    levels = np.unique(y[full])
+    if levels.size < 2:
+        return None
+    steps = np.diff(levels)
+    steps = steps[steps > 1e-9 * max(1.0, float(np.max(np.abs(levels))))]
+    return float(steps.min()) if steps.size else 0.0
+
+
+def _coarse_levels(run: Run, c: int, window: int = 9) -> bool:
+    """Whether channel ``c`` sits on output levels coarser than its own noise.
+
+    A quantiser whose step is large against the noise (a 10- or 12-bit ADC on a
+    quiet part, a digital sensor at several mg per LSB) holds the output on one
+    code for whole blocks, at its extremes as everywhere else: such a pile-up is
+    not a rail. Coarse means the grid of the block means (:func:`_level_grid`)
+    is at least the blocks' robust noise about a running median of ``window``
+    blocks; on a part whose noise spans several codes it is a fraction of it.
+    """
+    y = np.ascontiguousarray(run.output[:, c], dtype=np.float64)
+    grid = _level_grid(y, run.count)
+    if grid is None:
+        return True
+    if y.size < 2 * window:
+        return False
+    return grid >= _robust_sigma(y - _running_median(y, window))
 
 
 def _running_median(y: NDArray[np.float64], window: int) -> NDArray[np.float64]:
@@ -337,11 +377,17 @@ def _spikes(run: Run, c: int, window: int, z_max: float) -> tuple[IntArray, floa
     The z-score is against a running median of ``window`` blocks; 0 when none.
     """
     y = np.ascontiguousarray(run.output[:, c], dtype=np.float64)
-    key = (digest_bytes(y.tobytes()), window, z_max)
+    key = (digest_bytes(y.tobytes() + run.count.tobytes()), window, z_max)
     found = _SPIKES.get(key)
     if found is None:
         resid = y - _running_median(y, window)
         sigma = _robust_sigma(resid)
+        grid = _level_grid(y, run.count)
+        if grid is not None and grid >= sigma:
+            # Coarse codes (see `_coarse_levels`): a block that crosses to the next
+            # code is no spike. The noise is at least the quantiser's own, step/sqrt(12),
+            # the step being the grid times the samples of a full block.
+            sigma = max(sigma, grid * float(run.count.max()) / math.sqrt(12.0))
         bad = np.flatnonzero(np.abs(resid) > z_max * sigma) if sigma > 0.0 else np.zeros(0, int)
         # A Python float: inf, not a warning.
         worst = float(np.max(np.abs(resid[bad]))) / sigma if bad.size else 0.0
