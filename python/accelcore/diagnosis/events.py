@@ -39,7 +39,7 @@ from accelcore.result.calibration import AxisModel
 
 from .between import window_residuals
 from .engine import Engine
-from .parameters import fit_models
+from .parameters import fit_models, variance_inflation
 from .search import cross_sources
 from .space import EVENT_PREFIX, Spec, is_event, with_cross
 from .stats import chi2_sf, corrected_p, t_sf
@@ -272,28 +272,8 @@ def _step_holds(
         j = m.terms.index(step)
         var = float(m.covariance[j, j])
         if m.estimated[j] and var > 0:
-            stat += float(m.coefficients[j]) ** 2 / (var * _variance_inflation(eng, a, trial[a]))
+            stat += float(m.coefficients[j]) ** 2 / (var * variance_inflation(eng, a, trial[a]))
     return corrected_p(chi2_sf(stat, 3), n_windows) < alpha
-
-
-def _variance_inflation(eng: Engine, axis: str, spec: Spec) -> float:
-    """Return how much the residual's own correlation widens a coefficient's variance (>= 1).
-
-    The fit's covariance takes the samples' errors as independent; what a model leaves
-    (a kink where a ramp starts, a slow wave) is not, and a step of a few hundredths of
-    a milligram where a soak ends passed as a 9-sigma event. Batch means over the
-    engine's blocks (300 s): the mean over blocks of ``n_b · mean_b²`` against the
-    samples' mean square, 1 for white noise.
-    """
-    r = eng.residuals(axis, spec.terms(axis))[0]
-    n_b = np.bincount(eng.sample_block, weights=eng.w)
-    s_b = np.bincount(eng.sample_block, weights=eng.w * r)
-    keep = n_b > 0
-    per_sample = float(np.sum(eng.w * r * r) / np.sum(eng.w))
-    if not (np.count_nonzero(keep) >= 2 and per_sample > 0):
-        return 1.0
-    long_run = float(np.mean(s_b[keep] ** 2 / n_b[keep]))
-    return max(1.0, long_run / per_sample)
 
 
 def event_corrections(eng: Engine, models: Mapping[str, AxisModel]) -> list[FloatArray]:

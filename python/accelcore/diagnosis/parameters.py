@@ -36,7 +36,7 @@ from .generic import observable_unit
 from .search import profile_se, tau_se, with_warm_up
 from .space import Spec
 
-__all__ = ["added_parameters", "fit_models"]
+__all__ = ["added_parameters", "fit_models", "variance_inflation"]
 
 
 def added_parameters(
@@ -51,12 +51,13 @@ def added_parameters(
     for a in axes:
         m = models[a]
         s = eng.scale[a]
+        # Standard errors as the fit gives them take the samples' errors as independent.
+        widen = math.sqrt(variance_inflation(eng, a, specs[a]))
         if family == "thermal_lag":
             spec = specs[a]
             tau = spec.tau if spec.tau is not None else spec.rate_tau
-            out.append(
-                {"axis": a, "name": "tau", "value": tau, "se": tau_se(eng, a, spec), "unit": "s"}
-            )
+            se_tau = tau_se(eng, a, spec) * widen
+            out.append({"axis": a, "name": "tau", "value": tau, "se": se_tau, "unit": "s"})
             if spec.rate_tau is not None:
                 # offset c·(T_lag - T_ref) beside c1·(T - T_ref): c·(T_lag - T) ≈ -c·tau·dT/dt.
                 c, se = m.value("offset", LaggedTemperaturePower(spec.rate_tau, 1))
@@ -66,7 +67,7 @@ def added_parameters(
                         "axis": a,
                         "name": "rate coefficient",
                         "value": c * k,
-                        "se": abs(se * k),
+                        "se": abs(se * k) * widen,
                         "unit": "mg per °C/min",
                     }
                 )
@@ -78,7 +79,7 @@ def added_parameters(
                 continue
             if family.startswith("extra:") and t.basis.name != family:
                 continue
-            se = math.sqrt(max(float(var), 0.0)) if est else math.nan
+            se = math.sqrt(max(float(var), 0.0)) * widen if est else math.nan
             order = t.basis.temperature_order
             per = _per_unit(t.basis)
             if t.kind == "offset":
@@ -118,7 +119,7 @@ def added_parameters(
             )
             if isinstance(t.basis, Decay):
                 tau = t.basis.tau_s
-                se_tau = profile_se(eng, a, partial(with_warm_up, specs[a]), tau)
+                se_tau = profile_se(eng, a, partial(with_warm_up, specs[a]), tau) * widen
                 out.append({"axis": a, "name": "tau", "value": tau, "se": se_tau, "unit": "s"})
     return out
 
@@ -170,3 +171,27 @@ def fit_models(
         fixed_all += fixed
         notes += axis_notes
     return models, fixed_all, notes
+
+
+def variance_inflation(eng: Engine, axis: str, spec: Spec) -> float:
+    """Return how much the residual's own correlation widens a coefficient's variance (>= 1).
+
+    The fit's covariance takes the samples' errors as independent; what a model leaves
+    (a kink where a ramp starts, a slow wave) is not, and a step of a few hundredths of
+    a milligram where a soak ends passed as a 9-sigma event. Batch means over the
+    engine's blocks (300 s): the mean over blocks of ``n_b · mean_b²`` (``n_b`` the
+    block's weight) against the samples' weighted mean square per sample, 1 for white
+    noise (a decimated sample of weight ``w``, the raw samples it averages, has the
+    variance of one raw sample over ``w``). The reported standard errors of the added
+    parameters and of the session events are widened by its square root.
+    """
+    r = eng.residuals(axis, spec.terms(axis))[0]
+    n_b = np.bincount(eng.sample_block, weights=eng.w)
+    s_b = np.bincount(eng.sample_block, weights=eng.w * r)
+    keep = n_b > 0
+    n = np.count_nonzero(eng.w > 0)
+    per_sample = float(np.sum(eng.w * r * r) / n) if n else 0.0
+    if not (np.count_nonzero(keep) >= 2 and per_sample > 0):
+        return 1.0
+    long_run = float(np.mean(s_b[keep] ** 2 / n_b[keep]))
+    return max(1.0, long_run / per_sample)

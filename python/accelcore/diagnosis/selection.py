@@ -46,7 +46,7 @@ from .events import event_corrections, find_run_events, level_runs, levels_on_ev
 from .generic import LINE, TEMPERATURE_OBSERVABLES, generic_variants
 from .inside import alike
 from .observables import STEADY_C_PER_MIN
-from .parameters import added_parameters, fit_models
+from .parameters import added_parameters, fit_models, variance_inflation
 from .parts import one_way
 from .result import Diagnosis, Step
 from .scope import (
@@ -296,12 +296,13 @@ class _Selection:
         models, _, _ = fit_models(self.eng, self.specs)
         for a in AXES:
             m = models[a]
+            widen = math.sqrt(variance_inflation(self.eng, a, self.specs[a]))
             for t, c, var, est in zip(
                 m.terms, m.coefficients, np.diag(m.covariance), m.estimated, strict=True
             ):
                 if is_event(t.effect) and isinstance(t.basis, RunStep):
                     k = 1000.0 / self.eng.scale[a]
-                    se = math.sqrt(max(float(var), 0.0)) * k if est else math.nan
+                    se = math.sqrt(max(float(var), 0.0)) * k * widen if est else math.nan
                     self.session_events.append(
                         {
                             "event": t.effect[len("event: ") :],

@@ -382,13 +382,14 @@ def _spikes(run: Run, c: int, window: int, z_max: float) -> tuple[IntArray, floa
     if found is None:
         resid = y - _running_median(y, window)
         sigma = _robust_sigma(resid)
-        grid = _level_grid(y, run.count)
+        bad = np.flatnonzero(np.abs(resid) > z_max * sigma) if sigma > 0.0 else np.zeros(0, int)
+        grid = _level_grid(y, run.count) if bad.size else None
         if grid is not None and grid >= sigma:
             # Coarse codes (see `_coarse_levels`): a block that crosses to the next
             # code is no spike. The noise is at least the quantiser's own, step/sqrt(12),
             # the step being the grid times the samples of a full block.
             sigma = max(sigma, grid * float(run.count.max()) / math.sqrt(12.0))
-        bad = np.flatnonzero(np.abs(resid) > z_max * sigma) if sigma > 0.0 else np.zeros(0, int)
+            bad = np.flatnonzero(np.abs(resid) > z_max * sigma)
         # A Python float: inf, not a warning.
         worst = float(np.max(np.abs(resid[bad]))) / sigma if bad.size else 0.0
         bad = bad.astype(np.int64)
