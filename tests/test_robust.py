@@ -125,3 +125,32 @@ def test_spikes_on_coarse_codes_are_still_found(coarse: simulate.SimulatedArrays
     assert 60 <= n_spikes <= 120 and n_clipped == 0
     hit = {int(s) // 10 for s in starts} | {(int(s) + 4) // 10 for s in starts}
     assert set(np.flatnonzero(mask)) <= hit
+
+
+def test_a_partial_block_after_a_gap_is_judged_by_its_own_noise(
+    sim: simulate.SimulatedArrays,
+) -> None:
+    cols = _columns(sim)
+    run = cols["OZ+"]
+    # Rows 1000-1208 lost (a 10 s gap): the block of rows 1200-1209 keeps one sample,
+    # the noise of one sample, sqrt(10) times a full block's.
+    keep = np.ones(run["x"].size, dtype=bool)
+    keep[1000:1209] = False
+    for k in run:
+        run[k] = run[k][keep]
+    x = run["x"]
+    sigma_raw = float(np.std(np.diff(x[:1000])) / np.sqrt(2.0))
+    # That sample 4 sigma high: a draw white noise gives once in 30,000 samples. As a
+    # block mean it stood 10.2 robust sigma off its running median (a 'spike', over
+    # 8); scaled to a full block's noise, sqrt(10) less.
+    x[1000] += 4.0 * sigma_raw
+    session = _session(cols)
+    r = next(r for r in session.runs if r.orientation == "OZ+")
+    assert r.count.min() == 1
+    mask, n_spikes, _ = excluded_blocks(r)
+    assert n_spikes == 0 and not mask.any()
+    # A real spike there (+0.3 V, 1 g, in that one sample) is still one.
+    x[1000] += 0.3
+    r = next(r for r in _session(cols).runs if r.orientation == "OZ+")
+    mask, n_spikes, _ = excluded_blocks(r)
+    assert n_spikes == 1 and int(np.flatnonzero(mask)[0]) == int(np.argmin(r.count))

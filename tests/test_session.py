@@ -11,7 +11,7 @@ import pytest
 from numpy.typing import NDArray
 
 import accelcore
-from accelcore import calibrate, load_session, simulate
+from accelcore import TimeOrderError, calibrate, load_session, simulate
 from accelcore.input.session import Session
 
 FloatArray = NDArray[np.float64]
@@ -310,3 +310,19 @@ def test_from_arrays_calibrates_like_the_files(
         bound = bound + 1e-9 * np.abs(coef)
         diff = np.abs(cal_files.axes[axis].coefficients - coef)
         assert np.all(diff <= bound), f"{part} {axis}: {diff} > {bound}"
+
+
+@pytest.mark.parametrize("where", ["restart", "repeat"])
+def test_from_arrays_names_the_run_and_row_where_time_goes_back(where: str) -> None:
+    sim = simulate.arrays("ADXL335", seed=1, duration_h=0.25, orientations=("OZ+", "OZ-", "OX+"))
+    runs = [(r.orientation, {k: v.copy() for k, v in r.columns.items()}) for r in sim.runs]
+    t = runs[2][1]["time_s"]
+    if where == "restart":  # the logger restarted halfway: time from 0 again
+        t[9000:] -= t[9000]
+    else:  # one row repeated
+        t[4000] = t[3999]
+    row = 9000 if where == "restart" else 4000
+    named = rf"^run 3 \(OX\+\): column 'time_s', row {row}: "
+    with pytest.raises(TimeOrderError, match=named) as e:
+        Session.from_arrays(runs, units="V", rate_hz=20.0, sensor="ADXL335")
+    assert (e.value.index, e.value.previous_s, e.value.time_s) == (row, t[row - 1], t[row])

@@ -121,9 +121,10 @@ def check_session(
         extremes too; a rail on such a channel is not told from its codes).
     outlier_z, outlier_window : float, int
         A decimated block whose robust z-score against a running median of
-        ``outlier_window`` blocks exceeds ``outlier_z`` is an outlier (on a channel
-        coarser than its noise, the noise is taken as at least the quantiser's,
-        step/sqrt(12), so a block crossing to the next code is none).
+        ``outlier_window`` blocks exceeds ``outlier_z`` is an outlier (a block of
+        fewer samples than a full one, at a gap's edge, scaled to a full block's
+        noise; on a channel coarser than its noise, the noise is taken as at least
+        the quantiser's, step/sqrt(12), so a block crossing to the next code is none).
     step_z, step_window : float, int
         A step is a jump between the medians of the ``step_window`` blocks
         after and before a point, less the local drift (from the neighbouring
@@ -285,19 +286,26 @@ def _check_clipping(
     return out
 
 
+def _typical_count(count: NDArray[np.int64]) -> int:
+    """Return the samples most blocks of a run hold (a full block; 1 for a log kept whole)."""
+    return int(np.bincount(count).argmax()) if count.size else 1
+
+
 def _level_grid(y: NDArray[np.float64], count: NDArray[np.int64]) -> float | None:
     """Least positive difference between the distinct means of a run's full blocks.
 
     A quantiser puts the mean of ``k`` samples on a grid of its step / ``k``; on
     data that are not quantised the grid is as fine as float rounding (ignored
-    below 1e-9 of the values). ``None`` when the full blocks hold one value.
+    below 1e-9 of the values). Full: the count most blocks hold, so a run's grid does
+    not depend on where a file cut it. ``None`` when the full blocks hold one value.
     """
-    full = count == count.max() if count.size else np.zeros(0, dtype=bool)
+    full = count == _typical_count(count)
     levels = np.unique(y[full])
     if levels.size < 2:
         return None
     steps = np.diff(levels)
-    steps = steps[steps > 1e-9 * max(1.0, float(np.max(np.abs(levels))))]
+    # Rounding relative to the values' typical size (a wild value does not set it).
+    steps = steps[steps > 1e-9 * max(1.0, float(np.median(np.abs(levels))))]
     return float(steps.min()) if steps.size else 0.0
 
 
@@ -380,7 +388,11 @@ def _spikes(run: Run, c: int, window: int, z_max: float) -> tuple[IntArray, floa
     key = (digest_bytes(y.tobytes() + run.count.tobytes()), window, z_max)
     found = _SPIKES.get(key)
     if found is None:
-        resid = y - _running_median(y, window)
+        # A block of fewer samples than most (the edge of a gap, a run's ends) is that
+        # much noisier, one of more that much quieter: residuals scaled to the typical
+        # block's noise (the most common count, wherever a file cut the run).
+        full = float(_typical_count(run.count))
+        resid = (y - _running_median(y, window)) * np.sqrt(run.count / full)
         sigma = _robust_sigma(resid)
         bad = np.flatnonzero(np.abs(resid) > z_max * sigma) if sigma > 0.0 else np.zeros(0, int)
         grid = _level_grid(y, run.count) if bad.size else None
@@ -388,7 +400,7 @@ def _spikes(run: Run, c: int, window: int, z_max: float) -> tuple[IntArray, floa
             # Coarse codes (see `_coarse_levels`): a block that crosses to the next
             # code is no spike. The noise is at least the quantiser's own, step/sqrt(12),
             # the step being the grid times the samples of a full block.
-            sigma = max(sigma, grid * float(run.count.max()) / math.sqrt(12.0))
+            sigma = max(sigma, grid * full / math.sqrt(12.0))
             bad = np.flatnonzero(np.abs(resid) > z_max * sigma)
         # A Python float: inf, not a warning.
         worst = float(np.max(np.abs(resid[bad]))) / sigma if bad.size else 0.0
@@ -565,7 +577,8 @@ def excluded_blocks(
     """Decimated blocks a fit should leave out: spikes, and output clipped at a rail.
 
     A spike is a block of x, y or z whose robust z-score against a running
-    median of ``outlier_window`` blocks exceeds ``outlier_z`` (the same test as
+    median of ``outlier_window`` blocks exceeds ``outlier_z``, its residual scaled to
+    a full block's noise where it holds fewer samples (the same test as
     :func:`check_session`; white noise reaches 8 robust sigma about once in
     10^15 blocks, so clean data loses nothing). On a channel that
     :func:`check_session` reports as clipped, every block sitting on the rail and

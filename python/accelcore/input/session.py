@@ -27,6 +27,7 @@ from accelcore import core
 from accelcore._accelcore import RunTally, digest_bytes, read_run
 from accelcore.constants import (
     AXES,
+    DEFAULT_COLUMNS,
     ORIENTATIONS,
     SESSION_FORMAT,
     STANDARD_GRAVITY,
@@ -36,6 +37,7 @@ from accelcore.errors import (
     InsufficientDataError,
     ParameterError,
     SessionFormatError,
+    TimeOrderError,
 )
 from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
 from accelcore.input.consistency import check_labels, check_rate
@@ -250,7 +252,18 @@ class Session:
             dec = core.Decimator(
                 factor=decimation_factor, rate_hz=rate_hz, n_channels=channels.shape[1]
             )
-            dec.push(time_s, temp_c, channels)
+            try:
+                dec.push(time_s, temp_c, channels)
+            except TimeOrderError as e:
+                # The core counts rows from 0 within this run's push: name the run too.
+                time_column = names.get("time") or DEFAULT_COLUMNS["time"]
+                err = TimeOrderError(
+                    f"{label}: column {time_column!r}, row {e.index}: time is not strictly "
+                    f"increasing ({e.previous_s:.9g} s then {e.time_s:.9g} s); a logger "
+                    "restart or repeated rows: split the run or drop the repeats"
+                )
+                err.index, err.previous_s, err.time_s = e.index, e.previous_s, e.time_s
+                raise err from e
             blocks = dec.finish()
             tally = RunTally(n_channels=channels.shape[1], rate_hz=rate_hz)
             tally.push(time_s, temp_c, channels)
