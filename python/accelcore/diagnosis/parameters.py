@@ -185,7 +185,9 @@ def variance_inflation(eng: Engine, axis: str, spec: Spec) -> float:
     variance of one raw sample over ``w``). The reported standard errors of the added
     parameters and of the session events are widened by its square root.
     """
-    r = eng.residuals(axis, spec.terms(axis))[0]
+    fit = eng.fit(axis, spec.terms(axis))  # the in-sample fit alone (no fold's)
+    y = eng.y[axis]
+    r = y - fit.fitted(fit.beta_in) if fit.columns else y
     n_b = np.bincount(eng.sample_block, weights=eng.w)
     s_b = np.bincount(eng.sample_block, weights=eng.w * r)
     keep = n_b > 0
