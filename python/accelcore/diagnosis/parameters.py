@@ -34,9 +34,9 @@ from accelcore.result.calibration import AxisModel, nominal_sensitivity
 from .engine import Engine
 from .generic import observable_unit
 from .search import profile_se, tau_se, with_warm_up
-from .space import Spec
+from .space import EVENT_PREFIX, Spec, is_event
 
-__all__ = ["added_parameters", "fit_models", "variance_inflation"]
+__all__ = ["added_parameters", "event_parameters", "fit_models", "variance_inflation"]
 
 
 def added_parameters(
@@ -121,6 +121,33 @@ def added_parameters(
                 tau = t.basis.tau_s
                 se_tau = profile_se(eng, a, partial(with_warm_up, specs[a]), tau) * widen
                 out.append({"axis": a, "name": "tau", "value": tau, "se": se_tau, "unit": "s"})
+    return out
+
+
+def event_parameters(
+    eng: Engine, models: Mapping[str, AxisModel], specs: Mapping[str, Spec]
+) -> list[dict[str, Any]]:
+    """Return the session events' parameters (a step, a run's level) in mg, one row each."""
+    out: list[dict[str, Any]] = []
+    for a in AXES:
+        m = models[a]
+        k = 1000.0 / eng.scale[a]
+        widen = math.sqrt(variance_inflation(eng, a, specs[a]))
+        for t, c, var, est in zip(
+            m.terms, m.coefficients, np.diag(m.covariance), m.estimated, strict=True
+        ):
+            if is_event(t.effect) and isinstance(t.basis, RunStep):
+                se = math.sqrt(max(float(var), 0.0)) * k * widen if est else math.nan
+                out.append(
+                    {
+                        "event": t.effect[len(EVENT_PREFIX) :],
+                        "axis": a,
+                        "parameter": t.name,
+                        "value": float(c) * k,
+                        "se": se,
+                        "unit": "mg",
+                    }
+                )
     return out
 
 

@@ -34,7 +34,7 @@ import pandas as pd
 
 from accelcore.input.quality import QualityIssue, check_session
 from accelcore.input.session import Session
-from accelcore.model import AXES, Decay, RunStep
+from accelcore.model import AXES, Decay
 from accelcore.result.calibration import Calibration
 
 from . import search
@@ -46,7 +46,7 @@ from .events import event_corrections, find_run_events, level_runs, levels_on_ev
 from .generic import LINE, TEMPERATURE_OBSERVABLES, generic_variants
 from .inside import alike
 from .observables import STEADY_C_PER_MIN
-from .parameters import added_parameters, fit_models, variance_inflation
+from .parameters import added_parameters, event_parameters, fit_models
 from .parts import one_way
 from .result import Diagnosis, Step
 from .scope import (
@@ -58,7 +58,7 @@ from .scope import (
     without_findings,
 )
 from .search import variants
-from .space import FAMILIES, Spec, is_event, with_tau
+from .space import FAMILIES, Spec, with_tau
 from .stats import pooled_rms, wrms
 from .structure import (
     MIN_TEMPERATURE_SPAN_C,
@@ -292,27 +292,8 @@ class _Selection:
 
     def record_events(self) -> None:
         """Fill :attr:`session_events` from the fit of the current specs (their run events)."""
-        self.session_events = []
         models, _, _ = fit_models(self.eng, self.specs)
-        for a in AXES:
-            m = models[a]
-            widen = math.sqrt(variance_inflation(self.eng, a, self.specs[a]))
-            for t, c, var, est in zip(
-                m.terms, m.coefficients, np.diag(m.covariance), m.estimated, strict=True
-            ):
-                if is_event(t.effect) and isinstance(t.basis, RunStep):
-                    k = 1000.0 / self.eng.scale[a]
-                    se = math.sqrt(max(float(var), 0.0)) * k * widen if est else math.nan
-                    self.session_events.append(
-                        {
-                            "event": t.effect[len("event: ") :],
-                            "axis": a,
-                            "parameter": t.name,
-                            "value": float(c) * k,
-                            "se": se,
-                            "unit": "mg",
-                        }
-                    )
+        self.session_events = event_parameters(self.eng, models, self.specs)
 
     def _revisit_lags(self) -> None:
         """Search again the lag of every axis that has one (variant and tau), keep the better."""

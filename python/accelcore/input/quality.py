@@ -44,6 +44,7 @@ from numpy.typing import NDArray
 from accelcore._accelcore import digest_bytes, running_median, sliding_median
 from accelcore.constants import AXES
 from accelcore.errors import DataQualityWarning
+from accelcore.input.levels import level_grid, quantiser_sigma, typical_count
 from accelcore.input.medians import median_of_finite
 from accelcore.input.records import records
 from accelcore.input.session import Run, Session
@@ -286,46 +287,33 @@ def _check_clipping(
     return out
 
 
-def _typical_count(count: NDArray[np.int64]) -> int:
-    """Return the samples most blocks of a run hold (a full block; 1 for a log kept whole)."""
-    return int(np.bincount(count).argmax()) if count.size else 1
-
-
-def _level_grid(y: NDArray[np.float64], count: NDArray[np.int64]) -> float | None:
-    """Least positive difference between the distinct means of a run's full blocks.
-
-    A quantiser puts the mean of ``k`` samples on a grid of its step / ``k``; on
-    data that are not quantised the grid is as fine as float rounding (ignored
-    below 1e-9 of the values). Full: the count most blocks hold, so a run's grid does
-    not depend on where a file cut it. ``None`` when the full blocks hold one value.
-    """
-    full = count == _typical_count(count)
-    levels = np.unique(y[full])
-    if levels.size < 2:
-        return None
-    steps = np.diff(levels)
-    # Rounding relative to the values' typical size (a wild value does not set it).
-    steps = steps[steps > 1e-9 * max(1.0, float(np.median(np.abs(levels))))]
-    return float(steps.min()) if steps.size else 0.0
-
-
 def _coarse_levels(run: Run, c: int, window: int = 9) -> bool:
     """Whether channel ``c`` sits on output levels coarser than its own noise.
 
-    A quantiser whose step is large against the noise (a 10- or 12-bit ADC on a
-    quiet part, a digital sensor at several mg per LSB) holds the output on one
-    code for whole blocks, at its extremes as everywhere else: such a pile-up is
-    not a rail. Coarse means the grid of the block means (:func:`_level_grid`)
-    is at least the blocks' robust noise about a running median of ``window``
-    blocks; on a part whose noise spans several codes it is a fraction of it.
+    Coarse: the grid of the block means (:func:`accelcore.input.levels.level_grid`)
+    is at least the blocks' robust noise (:func:`_block_noise`); on a part whose noise
+    spans several codes it is a fraction of it. Such a channel holds every code for
+    whole blocks, its extremes too: a pile-up there is not a rail.
     """
-    y = np.ascontiguousarray(run.output[:, c], dtype=np.float64)
-    grid = _level_grid(y, run.count)
+    grid = level_grid(run.output[:, c], run.count)
     if grid is None:
         return True
-    if y.size < 2 * window:
+    if len(run) < 2 * window:
         return False
-    return grid >= _robust_sigma(y - _running_median(y, window))
+    return grid >= _block_noise(run, c, window)[1]
+
+
+def _block_noise(run: Run, c: int, window: int) -> tuple[NDArray[np.float64], float]:
+    """Channel ``c``'s residual about a running median of ``window`` blocks, and its robust sigma.
+
+    A block of fewer samples than most (the edge of a gap, a run's ends) is that much
+    noisier, one of more that much quieter: each residual is scaled to the typical
+    block's noise (:func:`accelcore.input.levels.typical_count`).
+    """
+    y = np.ascontiguousarray(run.output[:, c], dtype=np.float64)
+    scale = np.sqrt(run.count / typical_count(run.count))
+    resid = (y - _running_median(y, window)) * scale
+    return resid, _robust_sigma(resid)
 
 
 def _running_median(y: NDArray[np.float64], window: int) -> NDArray[np.float64]:
@@ -388,19 +376,13 @@ def _spikes(run: Run, c: int, window: int, z_max: float) -> tuple[IntArray, floa
     key = (digest_bytes(y.tobytes() + run.count.tobytes()), window, z_max)
     found = _SPIKES.get(key)
     if found is None:
-        # A block of fewer samples than most (the edge of a gap, a run's ends) is that
-        # much noisier, one of more that much quieter: residuals scaled to the typical
-        # block's noise (the most common count, wherever a file cut the run).
-        full = float(_typical_count(run.count))
-        resid = (y - _running_median(y, window)) * np.sqrt(run.count / full)
-        sigma = _robust_sigma(resid)
+        resid, sigma = _block_noise(run, c, window)
         bad = np.flatnonzero(np.abs(resid) > z_max * sigma) if sigma > 0.0 else np.zeros(0, int)
-        grid = _level_grid(y, run.count) if bad.size else None
+        grid = level_grid(y, run.count) if bad.size else None
         if grid is not None and grid >= sigma:
-            # Coarse codes (see `_coarse_levels`): a block that crosses to the next
-            # code is no spike. The noise is at least the quantiser's own, step/sqrt(12),
-            # the step being the grid times the samples of a full block.
-            sigma = max(sigma, grid * full / math.sqrt(12.0))
+            # Coarse codes (`_coarse_levels`): a block that crosses to the next code is
+            # no spike; the noise is at least the quantiser's own.
+            sigma = max(sigma, quantiser_sigma(grid, run.count))
             bad = np.flatnonzero(np.abs(resid) > z_max * sigma)
         # A Python float: inf, not a warning.
         worst = float(np.max(np.abs(resid[bad]))) / sigma if bad.size else 0.0
