@@ -343,6 +343,19 @@ def test_the_same_file_listed_twice_is_an_error(S: Path) -> None:
         accelcore.load_session(S, cache=False)
 
 
+@pytest.mark.parametrize("how", ["symlink", "hard link"])
+def test_a_link_to_another_run_file_is_the_same_file(S: Path, how: str) -> None:
+    # One stat per run file decides: a link names the file it leads to.
+    (S / "x_neg.csv").unlink()
+    if how == "symlink":
+        (S / "x_neg.csv").symlink_to(S / "y_pos.csv")
+    else:
+        os.link(S / "y_pos.csv", S / "x_neg.csv")
+    with pytest.raises(accelcore.SessionFormatError, match="the same file as") as info:
+        accelcore.load_session(S, cache=False)
+    assert "'x_neg.csv'" in str(info.value) and "'y_pos.csv'" in str(info.value)
+
+
 # --------------------------------------------------- 3. typed errors on every path in
 def _sim_runs() -> list[tuple[str, dict[str, np.ndarray]]]:
     sim = simulate.arrays("ADXL335", seed=3, orientations=("OZ+", "OZ-"), **SHORT)

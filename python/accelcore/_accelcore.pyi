@@ -857,6 +857,74 @@ def first_order_lag(
     or ``x[0]``: what a die trailing the logged probe sees. ``tau_s = 0`` returns the input.
     """
 
+def fingerprint(values: ArrayLike, counts: ArrayLike, /) -> int:
+    """128-bit fingerprint of a float series and an integer series, for caches.
+
+    XXH3 of the length and little-endian bytes of ``values``, then of ``counts``:
+    equal arrays give equal fingerprints; arrays that differ in any bit or length give
+    different ones, but for chance (odds about 2^-64 among 2^32 arrays). Not a
+    provenance digest (those are BLAKE3 or SHA-256).
+
+    Parameters
+    ----------
+    values : array_like, shape (n,)
+        Converted to float64.
+    counts : array_like of int64, shape (m,)
+
+    Returns
+    -------
+    int
+        In ``0 ... 2**128 - 1``.
+
+    Raises
+    ------
+    ShapeError
+        An input is not 1-D.
+    """
+
+def median(a: ArrayLike, /) -> float:
+    """Median of ``a`` as ``float(np.median(a))`` gives it, bit for bit.
+
+    The middle value, or the mean of the two middle values ``a <= b`` as NumPy
+    computes it, ``(0.0 + a + b) / 2`` (a zero median is ``+0.0``). NaN for an empty
+    ``a`` or one holding a NaN (without NumPy's warning).
+
+    Parameters
+    ----------
+    a : array_like, shape (n,)
+        The values (converted to float64).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ShapeError
+        ``a`` is not 1-D.
+    """
+
+def nanmedian_columns(a: ArrayLike, /) -> NDArray[np.float64]:
+    """``np.nanmedian(a, axis=0)`` of a 2-D array, bit for bit.
+
+    Each column's median of its values that are not NaN (see :func:`median`); NaN
+    for a column with none (without NumPy's warning).
+
+    Parameters
+    ----------
+    a : array_like, shape (n, k)
+        The values (converted to float64; any memory layout).
+
+    Returns
+    -------
+    ndarray of float64, shape (k,)
+
+    Raises
+    ------
+    ShapeError
+        ``a`` is not 2-D.
+    """
+
 def running_median(y: ArrayLike, /, *, window: int) -> NDArray[np.float64]:
     """Centred running median of ``y`` over ``2 * (window // 2) + 1`` values.
 

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from typing import TypeVar
 
@@ -53,6 +52,7 @@ from accelcore.model import (
     Term,
     design_columns,
 )
+from accelcore.pools import shared_pool
 from accelcore.result.calibration import AxisModel, Calibration, nominal_sensitivity
 
 from .fits import CV, Fit, fold_coefficients
@@ -376,8 +376,7 @@ class Engine:
 
         designs = [found[1] for _, found in todo]
         if self.threads > 1 and len(designs) > 1:
-            with ThreadPoolExecutor(min(self.threads, len(designs))) as pool:
-                folded = list(pool.map(push, designs))
+            folded = list(shared_pool("accelcore-engine", self.threads).map(push, designs))
         else:
             folded = [push(d) for d in designs]
         for (name, (keys, _)), f in zip(todo, folded, strict=True):

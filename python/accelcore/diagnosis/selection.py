@@ -24,7 +24,6 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any, Literal
@@ -35,6 +34,7 @@ import pandas as pd
 from accelcore.input.quality import QualityIssue, check_session
 from accelcore.input.session import Session
 from accelcore.model import AXES, Decay
+from accelcore.pools import shared_pool
 from accelcore.result.calibration import Calibration
 
 from . import search
@@ -442,9 +442,8 @@ def diagnose(
         window: tuple[float, float] | Literal["logged"] = (
             base.window_c if all(map(math.isfinite, base.window_c)) else "logged"
         )
-        pool = ThreadPoolExecutor(max_workers=1)
+        pool = shared_pool("accelcore-quality", 1)
         checked = pool.submit(check_session, session, window_c=window, warn=False)
-        pool.shutdown(wait=False)
     eng = Engine(
         session,
         base,

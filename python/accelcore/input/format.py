@@ -490,6 +490,7 @@ def _runs(tables: object, folder: Path, where: str, *, check_files: bool) -> tup
             '(or log = "FILE": one log with an orientation column)'
         )
     specs: list[RunSpec] = []
+    seen: dict[object, int] = {}  # each file's identity (:func:`_file_identity`): its run
     for i, table in enumerate(tables, start=1):
         if not isinstance(table, dict):
             raise SessionFormatError(f"{where}: [[run]] #{i} must be a table")
@@ -504,25 +505,32 @@ def _runs(tables: object, folder: Path, where: str, *, check_files: bool) -> tup
         file = folder / str(table["file"])
         if check_files:
             _check_run_file(file, f"{where}, [[run]] #{i}")
-        earlier = next((s for s in specs if _same_file(s.path, file)), None)
-        if earlier is not None:
+        identity = _file_identity(file)
+        if (first := seen.setdefault(identity, i)) != i:
             raise SessionFormatError(
                 f"{where}: [[run]] #{i} reads {table['file']!r}, the same file as "
-                f"[[run]] #{specs.index(earlier) + 1} ({earlier.file!r}); "
+                f"[[run]] #{first} ({specs[first - 1].file!r}); "
                 "each run needs its own log"
             )
         specs.append(RunSpec(str(table["file"]), file, str(table["orientation"]).strip().upper()))
     return tuple(specs)
 
 
-def _same_file(a: Path, b: Path) -> bool:
-    """Tell whether two paths name one file (after links; hard links too)."""
-    if a.resolve() == b.resolve():
-        return True
+def _file_identity(path: Path) -> object:
+    """Return what two paths naming one file share (after links; hard links too).
+
+    The device and inode of a file that exists (what :meth:`pathlib.Path.samefile`
+    compares), else its resolved path: one ``stat`` per file, so checking n run files
+    costs n calls, not n^2 / 2 comparisons of resolved paths.
+    """
     try:
-        return a.samefile(b)
+        st = path.stat()
     except OSError:
-        return False
+        try:
+            return str(path.resolve())
+        except (OSError, RuntimeError):  # a symlink loop: refused when the file is read
+            return str(path.absolute())
+    return (st.st_dev, st.st_ino)
 
 
 def _check_run_file(file: Path, where: str, what: str = "run file") -> None:

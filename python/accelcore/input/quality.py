@@ -41,7 +41,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore._accelcore import digest_bytes, running_median, sliding_median
+from accelcore._accelcore import fingerprint, running_median, sliding_median
 from accelcore.constants import AXES
 from accelcore.errors import DataQualityWarning
 from accelcore.input.levels import level_grid, quantiser_sigma, typical_count
@@ -361,9 +361,9 @@ def _check_outliers(run: Run, axis: str, z_max: float, window: int) -> list[Qual
     ]
 
 
-#: Spikes found per channel content (its digest), window and threshold: the quality
+#: Spikes found per channel content (its :func:`fingerprint`), window and threshold: the quality
 #: check and the weights of every fit of a run ask for the same ones.
-_SPIKES: dict[tuple[str, int, float], tuple[IntArray, float]] = {}
+_SPIKES: dict[tuple[int, int, float], tuple[IntArray, float]] = {}
 _SPIKES_KEPT = 256
 
 
@@ -373,7 +373,7 @@ def _spikes(run: Run, c: int, window: int, z_max: float) -> tuple[IntArray, floa
     The z-score is against a running median of ``window`` blocks; 0 when none.
     """
     y = np.ascontiguousarray(run.output[:, c], dtype=np.float64)
-    key = (digest_bytes(y.tobytes() + run.count.tobytes()), window, z_max)
+    key = (fingerprint(y, run.count), window, z_max)
     found = _SPIKES.get(key)
     if found is None:
         resid, sigma = _block_noise(run, c, window)

@@ -14,7 +14,7 @@ import hashlib
 import math
 import os
 from collections.abc import Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import wait
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol, TypedDict
@@ -45,6 +45,7 @@ from accelcore.input.defaults import check_gravity, default_decimation_factor, f
 from accelcore.input.format import SessionFormat, check_units, gravity_of
 from accelcore.input.frames import check_complete_rows, frame_columns, run_table
 from accelcore.input.run import Run, RunStats
+from accelcore.pools import shared_pool
 
 __all__ = [
     "AXES",
@@ -508,47 +509,44 @@ def load_folder(
     if store is not None:
         for i, (hit, probe) in enumerate(store.lookup_all(run_files, params, digest)):
             found[i], probes[i] = hit, probe
-    missing = [i for i, hit in enumerate(found) if hit is None]
-    if len(missing) > 1:
-        # The Rust reader releases the GIL: read the runs on all cores at once, each
-        # hashed (provenance) in the same pass as it is parsed.
-        threads = read_threads or os.cpu_count() or 1
-        with ThreadPoolExecutor(max_workers=min(len(missing), threads)) as pool:
-            records = list(pool.map(read, [run_files[i] for i in missing]))
-    else:
-        records = [read(run_files[i]) for i in missing]
-    fresh = dict(zip(missing, records, strict=True))
-    if store is not None:
-        for i, (rec, hexdigest) in fresh.items():
-            store.store(probes[i], rec, hexdigest)  # only if the file did not change meanwhile
-        store.finish()
-    runs = []
-    file_digests = {fmt.toml_path.name: _toml_digest(fmt, digest)}
-    for i, spec in enumerate(fmt.runs):
-        data, file_digests[spec.path.name] = found[i] or fresh[i]
-        stats = RunStats(
-            n_rows=data.n_rows,
-            n_skipped_nonfinite=data.n_skipped_nonfinite,
-            n_truncated_rows=data.n_truncated_rows,
-            n_gaps=data.n_gaps,
-            max_interval_s=data.max_interval_s,
-            duration_s=data.last_time_s - data.first_time_s,
-            channel_min=data.channel_min,
-            channel_max=data.channel_max,
-            n_at_min=data.n_at_min,
-            n_at_max=data.n_at_max,
-        )
-        runs.append(
+
+    def run_of(i: int) -> tuple[Run, RunRecord, str]:
+        """Read run ``i`` unless the cache holds it; build its :class:`Run`."""
+        record, hexdigest = found[i] or read(run_files[i])
+        spec = fmt.runs[i]
+        return (
             _make_run(
                 spec.orientation,
                 spec.gravity_g,
-                data.blocks,
-                data.channel_names[3:],
+                record.blocks,
+                record.channel_names[3:],
                 str(spec.path),
-                stats,
+                _run_stats(record),
                 temperature=fmt.has_temperature,
-            )
+            ),
+            record,
+            hexdigest,
         )
+
+    missing = [i for i, hit in enumerate(found) if hit is None]
+    if len(missing) > 1:
+        # The Rust reader releases the GIL: read the runs on all cores at once, each
+        # hashed (provenance) in the same pass as it is parsed, and its arrays copied
+        # into the run's own on the same thread.
+        pool = shared_pool("accelcore-read", read_threads or os.cpu_count() or 1)
+        tasks = [pool.submit(run_of, i) for i in range(len(run_files))]
+        wait(tasks)  # every read ends before any error is raised, as in a pool of its own
+        built = [task.result() for task in tasks]
+    else:
+        built = [run_of(i) for i in range(len(run_files))]
+    if store is not None:
+        for i in missing:
+            store.store(probes[i], built[i][1], built[i][2])  # only if the file did not change
+        store.finish()
+    file_digests = {fmt.toml_path.name: _toml_digest(fmt, digest)}
+    for spec, (_, _, hexdigest) in zip(fmt.runs, built, strict=True):
+        file_digests[spec.path.name] = hexdigest
+    runs = [run for run, _, _ in built]
     return Session(
         runs=tuple(runs),
         units=fmt.units,
@@ -561,6 +559,22 @@ def load_folder(
         format=fmt,
         digest=digest,
         gravity_m_s2=fmt.gravity_m_s2,
+    )
+
+
+def _run_stats(data: RunRecord) -> RunStats:
+    """Return what the reader saw in a run's raw log (a record, fresh or cached)."""
+    return RunStats(
+        n_rows=data.n_rows,
+        n_skipped_nonfinite=data.n_skipped_nonfinite,
+        n_truncated_rows=data.n_truncated_rows,
+        n_gaps=data.n_gaps,
+        max_interval_s=data.max_interval_s,
+        duration_s=data.last_time_s - data.first_time_s,
+        channel_min=data.channel_min,
+        channel_max=data.channel_max,
+        n_at_min=data.n_at_min,
+        n_at_max=data.n_at_max,
     )
 
 

@@ -27,7 +27,9 @@ pub mod compensate;
 pub mod decimate;
 pub mod error;
 pub mod features;
+pub mod fingerprint;
 pub mod heldout;
+pub mod median;
 pub mod reader;
 pub mod regression;
 pub mod robust;
@@ -40,7 +42,9 @@ pub use compensate::compensate;
 pub use decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 pub use error::{Error, Result};
 pub use features::first_order_lag;
+pub use fingerprint::fingerprint;
 pub use heldout::{BlockedLeastSquares, FoldedLeastSquares, HeldOutFit};
+pub use median::{median, nanmedian};
 pub use reader::{
     merge_runs, plan_split, read_run, read_run_digest, read_run_from, read_run_hashed,
     read_run_range, CsvFormat, DigestAlgorithm, RunData, SplitPlan,

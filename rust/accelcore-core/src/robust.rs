@@ -307,7 +307,7 @@ const SIGN: u64 = 1 << 63;
 /// Key of a non-NaN value whose integer order is `f64::total_cmp` order (so
 /// `-0.0 < 0.0`, and equal keys are bitwise-equal values): negative values have
 /// all bits flipped, the others only the sign bit.
-fn key(x: f64) -> u64 {
+pub(crate) fn key(x: f64) -> u64 {
     let bits = x.to_bits();
     if bits & SIGN == 0 {
         bits | SIGN
@@ -317,7 +317,7 @@ fn key(x: f64) -> u64 {
 }
 
 /// Inverse of [`key`].
-fn value(k: u64) -> f64 {
+pub(crate) fn value(k: u64) -> f64 {
     f64::from_bits(if k & SIGN == 0 { !k } else { k & !SIGN })
 }
 

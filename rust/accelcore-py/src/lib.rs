@@ -35,7 +35,9 @@ mod _accelcore {
     #[pymodule_export]
     use super::regression::{PyLeastSquares, PyLstsqSolution};
     #[pymodule_export]
-    use super::robust::{py_running_median, py_sliding_median};
+    use super::robust::{
+        py_fingerprint, py_median, py_nanmedian_columns, py_running_median, py_sliding_median,
+    };
     #[pymodule_export]
     use super::search::PyTimeConstantSearch;
     #[pymodule_export]

@@ -1,9 +1,11 @@
 //! `running_median` and `sliding_median`: the medians of the data-quality checks.
 
-use numpy::{IntoPyArray, PyArray1};
+use std::borrow::Cow;
+
+use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArrayLike1};
 use pyo3::prelude::*;
 
-use crate::gateway::{array1, count, run_detached, slice_or_copy};
+use crate::gateway::{array1, array2, count, run_detached, slice_or_copy};
 
 /// Centred running median of ``y`` over ``2 * (window // 2) + 1`` values.
 ///
@@ -83,4 +85,108 @@ pub(crate) fn py_sliding_median<'py>(
     let y = slice_or_copy(&y);
     let out = run_detached(py, || accelcore_core::sliding_median(&y, window))?;
     Ok(out.into_pyarray(py))
+}
+
+/// Median of ``a`` as ``float(np.median(a))`` gives it, bit for bit.
+///
+/// The middle value, or the mean of the two middle values ``a <= b`` as NumPy
+/// computes it, ``(0.0 + a + b) / 2`` (a zero median is ``+0.0``). NaN for an empty
+/// ``a`` or one holding a NaN (without NumPy's warning).
+///
+/// Parameters
+/// ----------
+/// a : array_like, shape (n,)
+///     The values (converted to float64).
+///
+/// Returns
+/// -------
+/// float
+///
+/// Raises
+/// ------
+/// ShapeError
+///     ``a`` is not 1-D.
+#[pyfunction(name = "median")]
+#[pyo3(signature = (a, /))]
+pub(crate) fn py_median(py: Python<'_>, a: &Bound<'_, PyAny>) -> PyResult<f64> {
+    let a = array1(a, "a dimensions")?;
+    let a = slice_or_copy(&a);
+    run_detached(py, || Ok(accelcore_core::median(&a)))
+}
+
+/// ``np.nanmedian(a, axis=0)`` of a 2-D array, bit for bit.
+///
+/// Each column's median of its values that are not NaN (see :func:`median`); NaN
+/// for a column with none (without NumPy's warning).
+///
+/// Parameters
+/// ----------
+/// a : array_like, shape (n, k)
+///     The values (converted to float64; any memory layout).
+///
+/// Returns
+/// -------
+/// ndarray of float64, shape (k,)
+///
+/// Raises
+/// ------
+/// ShapeError
+///     ``a`` is not 2-D.
+#[pyfunction(name = "nanmedian_columns")]
+#[pyo3(signature = (a, /))]
+pub(crate) fn py_nanmedian_columns<'py>(
+    py: Python<'py>,
+    a: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let a = array2(a, "a dimensions")?;
+    let view = a.as_array();
+    let out = run_detached(py, || {
+        Ok(view
+            .columns()
+            .into_iter()
+            .map(|column| match column.as_slice() {
+                Some(values) => accelcore_core::nanmedian(values),
+                None => accelcore_core::nanmedian(&column.to_vec()),
+            })
+            .collect::<Vec<f64>>())
+    })?;
+    Ok(out.into_pyarray(py))
+}
+
+/// 128-bit fingerprint of a float series and an integer series, for caches.
+///
+/// XXH3 of the length and little-endian bytes of ``values``, then of ``counts``:
+/// equal arrays give equal fingerprints; arrays that differ in any bit or length give
+/// different ones, but for chance (odds about 2^-64 among 2^32 arrays). Not a
+/// provenance digest (those are BLAKE3 or SHA-256).
+///
+/// Parameters
+/// ----------
+/// values : array_like, shape (n,)
+///     Converted to float64.
+/// counts : array_like of int64, shape (m,)
+///
+/// Returns
+/// -------
+/// int
+///     In ``0 ... 2**128 - 1``.
+///
+/// Raises
+/// ------
+/// ShapeError
+///     An input is not 1-D.
+#[pyfunction(name = "fingerprint")]
+#[pyo3(signature = (values, counts, /))]
+pub(crate) fn py_fingerprint(
+    py: Python<'_>,
+    values: &Bound<'_, PyAny>,
+    counts: PyArrayLike1<'_, i64, AllowTypeChange>,
+) -> PyResult<u128> {
+    let values = array1(values, "values dimensions")?;
+    let values = slice_or_copy(&values);
+    let counts: Cow<'_, [i64]> = match counts.as_slice() {
+        Ok(slice) => Cow::Borrowed(slice),
+        Err(_) => Cow::Owned(counts.as_array().iter().copied().collect()),
+    };
+    run_detached(py, || Ok(accelcore_core::fingerprint(&values, &counts)))
 }
