@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import sys
 from pathlib import Path
 
 import pytest
 
 import accelcore
 from accelcore import simulate
-from accelcore.pools import shared_pool
+from accelcore.pools import SIDE_TASK_SWITCH_S, beside, shared_pool
 
 
 def test_one_pool_per_purpose_and_size() -> None:
@@ -36,3 +37,21 @@ def test_a_forked_child_reads_with_its_own_pool(tmp_path: Path) -> None:
     assert runs == 6
     with multiprocessing.get_context("fork").Pool(1) as pool:
         assert pool.apply_async(_load_in_child, (str(example_session),)).get(timeout=60) == runs
+
+
+def test_beside_restores_the_switch_interval() -> None:
+    before = sys.getswitchinterval()
+    with beside():
+        assert sys.getswitchinterval() == pytest.approx(SIDE_TASK_SWITCH_S)
+    assert sys.getswitchinterval() == before
+    # Changed by someone else meanwhile: theirs is kept.
+    try:
+        with beside():
+            sys.setswitchinterval(0.002)
+        assert sys.getswitchinterval() == pytest.approx(0.002)
+    finally:
+        sys.setswitchinterval(before)
+    # An error in the body: restored all the same.
+    with pytest.raises(ZeroDivisionError), beside():
+        _ = 1 / 0
+    assert sys.getswitchinterval() == before

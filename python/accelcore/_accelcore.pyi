@@ -925,6 +925,28 @@ def nanmedian_columns(a: ArrayLike, /) -> NDArray[np.float64]:
         ``a`` is not 2-D.
     """
 
+def sorted_values(values: ArrayLike, /) -> NDArray[np.float64]:
+    """``np.sort(values)``: ascending, NaN last (a radix sort in the core).
+
+    Values that compare equal come out equal, but ``-0.0`` sorts before ``0.0``
+    (NumPy leaves their order to its algorithm); the NaNs keep their bits and their
+    order, after everything else.
+
+    Parameters
+    ----------
+    values : array_like, shape (n,)
+        Converted to float64.
+
+    Returns
+    -------
+    ndarray of float64, shape (n,)
+
+    Raises
+    ------
+    ShapeError
+        ``values`` is not 1-D.
+    """
+
 def running_median(y: ArrayLike, /, *, window: int) -> NDArray[np.float64]:
     """Centred running median of ``y`` over ``2 * (window // 2) + 1`` values.
 

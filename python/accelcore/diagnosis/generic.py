@@ -29,6 +29,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from accelcore._accelcore import sorted_values
 from accelcore.model import (
     AXES,
     Basis,
@@ -154,8 +155,9 @@ def _span(eng: Engine, inner: Basis) -> tuple[NDArray[np.float64], tuple[float, 
         if v.size >= 8 and np.all(np.isfinite(v)) and v.max() > v.min():
             lo, hi = (float(x) for x in np.quantile(v, list(_RANGE)))
             span = (lo, hi) if hi > lo else None
-        # Sorted once: every count of a set of knots is then a bisection (:func:`_knots`).
-        eng.span_cache[inner] = (np.sort(v), span)
+        # Sorted once (the core's radix sort; -0.0 before 0.0, which compare equal):
+        # every count of a set of knots is then a bisection (:func:`_knots`).
+        eng.span_cache[inner] = (sorted_values(v), span)
     return eng.span_cache[inner]
 
 

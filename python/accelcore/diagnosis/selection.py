@@ -34,7 +34,7 @@ import pandas as pd
 from accelcore.input.quality import QualityIssue, check_session
 from accelcore.input.session import Session
 from accelcore.model import AXES, Decay
-from accelcore.pools import shared_pool
+from accelcore.pools import beside, shared_pool
 from accelcore.result.calibration import Calibration
 
 from . import search
@@ -435,23 +435,14 @@ def diagnose(
     options_given = {k: v for k, v in locals().items() if k not in _NOT_OPTIONS}
     check_options(families, max_steps, min_improvement, alpha)
     base, specs, notes = starting_point(session, calibration, t_ref_c, window_c)
-    checked = None
-    if quality is None:
-        # The data-quality checks read the session only: on another thread, beside the
-        # engine's set-up (both spend most of their time in the core and NumPy).
-        window: tuple[float, float] | Literal["logged"] = (
-            base.window_c if all(map(math.isfinite, base.window_c)) else "logged"
-        )
-        pool = shared_pool("accelcore-quality", 1)
-        checked = pool.submit(check_session, session, window_c=window, warn=False)
-    eng = Engine(
+    eng, quality = _engine_beside_checks(
         session,
         base,
+        quality,
         folds=folds,
         block_s=block_s,
         steady_c_per_min=steady_c_per_min,
         max_order=max_order,
-        threads=search.search_threads or os.cpu_count() or 1,
     )
     extras_used = usable_extras(session, eng, extras, notes)
     confounded = confounding(eng, specs, extras_used, confound_r)
@@ -468,8 +459,6 @@ def diagnose(
         )
     elif caveat := one_way(eng.leg_kinds, eng.rate, eng.elapsed_s):
         warn.append(caveat)
-    if checked is not None:
-        quality = checked.result()
     # What a finding could explain, tried when the runs it is not about show it too.
     probe, cleared = without_findings(session, quality or ()), list[str]()
     if probe is not None:
@@ -544,6 +533,32 @@ def diagnose(
         session_events=tuple(selection.session_events),
         _engine=eng,
     )
+
+
+def _engine_beside_checks(
+    session: Session,
+    base: Calibration,
+    quality: Sequence[QualityIssue] | None,
+    **options: Any,
+) -> tuple[Engine, Sequence[QualityIssue] | None]:
+    """Set up the engine; without ``quality``, run the data-quality checks beside it.
+
+    The checks read the session only: on a pool thread, beside the engine's set-up
+    (both spend most of their time in the core and NumPy), with the interpreter's
+    short switch interval (:func:`accelcore.pools.beside`).
+    """
+    if quality is not None:
+        threads = search.search_threads or os.cpu_count() or 1
+        return Engine(session, base, threads=threads, **options), quality
+    window: tuple[float, float] | Literal["logged"] = (
+        base.window_c if all(map(math.isfinite, base.window_c)) else "logged"
+    )
+    with beside():
+        pool = shared_pool("accelcore-quality", 1)
+        checked = pool.submit(check_session, session, window_c=window, warn=False)
+        threads = search.search_threads or os.cpu_count() or 1
+        eng = Engine(session, base, threads=threads, **options)
+        return eng, checked.result()
 
 
 def _again_with_events(

@@ -34,6 +34,7 @@ pub mod reader;
 pub mod regression;
 pub mod robust;
 pub mod search;
+pub mod sort;
 pub mod stats;
 pub mod tally;
 
@@ -55,4 +56,5 @@ pub use search::{
     SampleSeries, SearchResult, SearchSettings, TauColumn, TimeConstantSearch, TrialModel,
     WindowLayout,
 };
+pub use sort::sorted;
 pub use tally::{ChannelRange, RawStats, RunTally};

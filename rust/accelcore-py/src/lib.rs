@@ -37,6 +37,7 @@ mod _accelcore {
     #[pymodule_export]
     use super::robust::{
         py_fingerprint, py_median, py_nanmedian_columns, py_running_median, py_sliding_median,
+        py_sorted_values,
     };
     #[pymodule_export]
     use super::search::PyTimeConstantSearch;

@@ -190,3 +190,34 @@ pub(crate) fn py_fingerprint(
     };
     run_detached(py, || Ok(accelcore_core::fingerprint(&values, &counts)))
 }
+
+/// ``np.sort(values)``: ascending, NaN last (a radix sort in the core).
+///
+/// Values that compare equal come out equal, but ``-0.0`` sorts before ``0.0``
+/// (NumPy leaves their order to its algorithm); the NaNs keep their bits and their
+/// order, after everything else.
+///
+/// Parameters
+/// ----------
+/// values : array_like, shape (n,)
+///     Converted to float64.
+///
+/// Returns
+/// -------
+/// ndarray of float64, shape (n,)
+///
+/// Raises
+/// ------
+/// ShapeError
+///     ``values`` is not 1-D.
+#[pyfunction(name = "sorted_values")]
+#[pyo3(signature = (values, /))]
+pub(crate) fn py_sorted_values<'py>(
+    py: Python<'py>,
+    values: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let values = array1(values, "values dimensions")?;
+    let values = slice_or_copy(&values);
+    let out = run_detached(py, || Ok(accelcore_core::sorted(&values)))?;
+    Ok(out.into_pyarray(py))
+}
