@@ -34,9 +34,13 @@ TEMPERATURE_FAMILIES = ("offset_curvature", "sensitivity_curvature", "thermal_la
 
 
 def temperature_span_c(eng: Engine) -> float:
-    """Return the span of the engine's temperatures, 5th to 95th percentile, °C."""
-    lo, hi = np.quantile(eng.temperature, [0.05, 0.95])
-    return float(hi - lo)
+    """Return the span of the engine's temperatures, 5th to 95th percentile, °C (kept)."""
+
+    def span() -> float:
+        lo, hi = np.quantile(eng.temperature, [0.05, 0.95])
+        return float(hi - lo)
+
+    return eng.kept("_temperature_span_c", None, span)
 
 
 FloatArray = NDArray[np.float64]
