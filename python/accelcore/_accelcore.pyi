@@ -947,6 +947,60 @@ def sorted_values(values: ArrayLike, /) -> NDArray[np.float64]:
         ``values`` is not 1-D.
     """
 
+def robust_sigma(r: ArrayLike, /) -> float:
+    """Robust standard deviation of the finite values of ``r``.
+
+    ``1.4826`` times the median absolute deviation from the median; where that is 0
+    (most values equal), ``sqrt(pi / 2)`` times the mean absolute deviation (NumPy's
+    summation order); 0 when no value is finite. The figures of
+    ``accelcore.input.quality``'s NumPy, bit for bit.
+
+    Parameters
+    ----------
+    r : array_like, shape (n,)
+        Converted to float64.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ShapeError
+        ``r`` is not 1-D.
+    """
+
+def block_noise(
+    y: ArrayLike, count: ArrayLike, /, *, window: int
+) -> tuple[NDArray[np.float64], float]:
+    """Return a run's block residuals about a running median, scaled, and their noise.
+
+    Each block's ``y - running_median(y, window)`` times ``sqrt(count / typical)``
+    (``typical``: the most common count, the smallest of those tied), and the
+    residuals' :func:`robust_sigma`.
+
+    Parameters
+    ----------
+    y : array_like, shape (n,)
+        Block means of one channel (converted to float64).
+    count : array_like of int64, shape (n,)
+        Raw samples in each block.
+    window : int
+        Running median's window, >= 1 (see :func:`running_median`).
+
+    Returns
+    -------
+    resid : ndarray of float64, shape (n,)
+    sigma : float
+
+    Raises
+    ------
+    ParameterError
+        ``window < 1``, or ``count`` and ``y`` differ in length.
+    ShapeError
+        An input is not 1-D.
+    """
+
 def running_median(y: ArrayLike, /, *, window: int) -> NDArray[np.float64]:
     """Centred running median of ``y`` over ``2 * (window // 2) + 1`` values.
 

@@ -37,13 +37,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore import core
 from accelcore.model import AXES, Term
 
 from .engine import Engine
 from .inside import excess, heldout_window_residuals
 from .space import Spec, with_cross
-from .stats import accept, chi2_sf, f_sf
+from .stats import Verdict, accept, chi2_sf, f_sf
 from .steps import Step
 
 __all__ = [
@@ -432,7 +431,9 @@ def within_runs(
     min_improvement: float,
     alpha: float,
     per_sample: bool = False,
-) -> core.Acceptance:
+    floor: float = 0.0,
+    least: float = 0.0,
+) -> Verdict:
     """Judge a candidate on its held-out error inside runs (the diagnosis' paired test).
 
     :func:`within_run_sse_blocks` of the current model and of the candidate, judged by
@@ -449,6 +450,8 @@ def within_runs(
         within_run_sse_blocks(eng, axis, candidate, per_sample),
         min_improvement=min_improvement,
         alpha=alpha,
+        floor=floor,
+        least=least,
     )
 
 

@@ -58,7 +58,7 @@ from accelcore.result.calibration import AxisModel, Calibration, nominal_sensiti
 from .fits import CV, Fit, fold_coefficients
 from .folds import choose_folds, cut_blocks
 from .parts import cut_parts
-from .windows import choose_windows
+from .windows import choose_windows, difference_noise
 
 __all__ = ["CV", "Engine"]
 
@@ -218,6 +218,13 @@ class Engine:
             ).astype(np.float64)
         self._within_total = {a: float(self._within[a].sum()) for a in AXES}
         self._wsum = float(self.w.sum())
+        # The least held-out squared error any model leaves (its noise): the scatter
+        # inside windows, unless neighbouring samples say the noise is less (a model that
+        # moves inside windows can explain part of that scatter).
+        self.noise_floor = {
+            a: min(self._within_total[a], difference_noise(self.y[a], self.w, self.sample_block))
+            for a in AXES
+        }
         self._memo: dict[tuple[str, tuple[_Key, ...]], HeldOutFit] = {}
         self._fixed_keys = {a: {_loose_key(t) for t, _ in self.fixed[a]} for a in AXES}
         self._free: dict[tuple[str, tuple[Term, ...]], tuple[Term, ...]] = {}

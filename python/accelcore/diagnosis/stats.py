@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,6 +20,7 @@ from numpy.typing import NDArray
 from accelcore import core
 
 __all__ = [
+    "Verdict",
     "accept",
     "chi2_sf",
     "corrected_p",
@@ -57,17 +59,62 @@ def paired_test(diff: FloatArray) -> tuple[float, float]:
     return test.t, test.p
 
 
+@dataclass(frozen=True)
+class Verdict:
+    """The diagnosis' verdict on a candidate (:func:`accept`) and its figures.
+
+    ``cut``, ``t`` and ``p`` are the core's :class:`accelcore.core.Acceptance`;
+    ``cut_systematic`` is the cut of the held-out error above its floor (NaN without one).
+    """
+
+    accepted: bool
+    cut: float
+    t: float
+    p: float
+    cut_systematic: float = math.nan
+
+
 def accept(
-    current_sse: FloatArray, candidate_sse: FloatArray, *, min_improvement: float, alpha: float
-) -> core.Acceptance:
+    current_sse: FloatArray,
+    candidate_sse: FloatArray,
+    *,
+    min_improvement: float,
+    alpha: float,
+    floor: float = 0.0,
+    least: float = 0.0,
+    min_systematic: float = 0.2,
+) -> Verdict:
     """Judge a candidate by the diagnosis' rule (:class:`accelcore.core.AcceptanceRule`).
 
     The held-out RMS error falls by at least ``min_improvement`` and the paired one-sided
     test over blocks gives ``p < alpha``: the t-tests of the per-block change of held-out
     squared error and of its log ratio, Bonferroni-combined.
+
+    The least improvement may instead be met on the *systematic* error: the held-out
+    squared error above ``floor`` (the noise every model leaves), which is what another
+    session of the part sees of a missing effect once its own noise is averaged out. On
+    an axis whose noise is large next to its systematic error, a real effect cuts the
+    whole error by a few percent and the systematic one by most of it. Such a candidate
+    must cut the systematic RMS error by ``min_systematic`` or more (a fifth: what is
+    left beside a disturbance no term can follow is often a tenth of it, a partial fit
+    of the disturbance), take ``least`` or more off the squared error (an effect too
+    small to matter is not added however significant), and pass the same test.
     """
-    rule = core.AcceptanceRule(min_improvement=min_improvement, alpha=alpha)
-    return rule.judge(current_sse, candidate_sse)
+    v = core.AcceptanceRule(min_improvement=min_improvement, alpha=alpha).judge(
+        current_sse, candidate_sse
+    )
+    before, after = float(np.sum(current_sse)), float(np.sum(candidate_sse))
+    systematic = math.nan
+    if floor > 0.0 and before > floor:
+        systematic = 1.0 - math.sqrt(max(after - floor, 0.0) / (before - floor))
+    accepted = bool(v.accepted) or (
+        math.isfinite(v.cut)
+        and v.cut > 0.0
+        and v.p < alpha
+        and systematic >= max(min_systematic, min_improvement)
+        and before - after >= least
+    )
+    return Verdict(accepted, float(v.cut), float(v.t), float(v.p), systematic)
 
 
 def corrected_p(p: float, n_tests: int) -> float:

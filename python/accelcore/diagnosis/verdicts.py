@@ -37,6 +37,7 @@ from .stats import accept, paired_test
 
 __all__ = [
     "GENERIC_MARGIN",
+    "MIN_SYSTEMATIC_MG",
     "Candidate",
     "Tried",
     "best_family",
@@ -44,6 +45,10 @@ __all__ = [
     "judge_between_runs",
     "redundant",
 ]
+
+#: Least RMS, mg, that a candidate accepted on its cut of the systematic held-out error
+#: (the error above the scatter inside windows, :func:`.stats.accept`) must take off it.
+MIN_SYSTEMATIC_MG = 0.1
 
 #: A generic family (``smooth``) is chosen over the best named one only when it cuts
 #: the held-out squared error by this factor more: the named ones are its special
@@ -104,7 +109,18 @@ def judge(
     best_rms = min(o[2].rms_out for o in finite)
     _, label, cv, spec = next((o for o in finite if o[2].rms_out <= best_rms * 1.01), finite[0])
     runs_only = adds_only_run_constant(eng, axis, cur.terms, cv.terms)
-    v = accept(cur.sse_blocks, cv.sse_blocks, min_improvement=min_improvement, alpha=alpha)
+    # The floor of every model's held-out error (its noise) and the least a candidate
+    # judged on its systematic cut must take off (:func:`.stats.accept`).
+    floor = eng.noise_floor[axis]
+    least = MIN_SYSTEMATIC_MG**2 * eng._wsum
+    v = accept(
+        cur.sse_blocks,
+        cv.sse_blocks,
+        min_improvement=min_improvement,
+        alpha=alpha,
+        floor=floor,
+        least=least,
+    )
     # Judged inside runs (the held-out error less each run's mean, :mod:`.between`)
     # when it does not raise the held-out error itself.
     inside = not runs_only and n_runs(eng) >= 2 and v.cut > 0
@@ -117,6 +133,8 @@ def judge(
             min_improvement=min_improvement,
             alpha=alpha,
             per_sample=exact,
+            floor=floor,
+            least=least,
         )
     cut, t, p, ok = v.cut, v.t, v.p, v.accepted
     # Columns constant in every run: no held-out fold can judge them (run folds cannot
@@ -134,6 +152,7 @@ def judge(
         "rms_out_before_mg": cur.rms_out,
         "rms_out_after_mg": cv.rms_out,
         "cut_pct": 100.0 * cut,
+        "cut_systematic_pct": 100.0 * v.cut_systematic,
         "t": t,
         "p_value": p,
         "cut_between_runs_pct": 100.0 * cut_runs,

@@ -18,6 +18,7 @@ Imports: NumPy and the core's least squares only.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -26,7 +27,14 @@ from numpy.typing import NDArray
 
 from accelcore.core import BlockedLeastSquares
 
-__all__ = ["MAX_WINDOW", "MIN_WINDOWS_PER_BLOCK", "WINDOW_LOSS", "Windows", "choose_windows"]
+__all__ = [
+    "MAX_WINDOW",
+    "MIN_WINDOWS_PER_BLOCK",
+    "WINDOW_LOSS",
+    "Windows",
+    "choose_windows",
+    "difference_noise",
+]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -187,3 +195,20 @@ def _explains_nothing(
         if explained - chance > WINDOW_LOSS * total:
             return False
     return True
+
+
+def difference_noise(y: FloatArray, w: FloatArray, block: IntArray) -> float:
+    """Return the white noise a weighted sum of squares of ``y`` holds: raw variance x samples.
+
+    A sample of weight ``w`` (a mean of ``w`` raw samples) adds ``w`` times its squared
+    error, so white noise adds its raw variance per sample; the difference of two
+    neighbouring samples of one block has variance ``raw (1 / w_i + 1 / w_(i-1))``, and
+    a smooth signal adds next to nothing to it. Infinity when no two samples of weight
+    share a block.
+    """
+    pair = (block[1:] == block[:-1]) & (w[1:] > 0) & (w[:-1] > 0)
+    if not pair.any():
+        return math.inf
+    d = (y[1:] - y[:-1])[pair]
+    inv = 1.0 / w[1:][pair] + 1.0 / w[:-1][pair]
+    return float(np.mean(d * d / inv)) * float(np.count_nonzero(w > 0))

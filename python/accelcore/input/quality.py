@@ -41,11 +41,16 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore._accelcore import fingerprint, running_median, sliding_median
+from accelcore._accelcore import (
+    block_noise,
+    fingerprint,
+    robust_sigma,
+    running_median,
+    sliding_median,
+)
 from accelcore.constants import AXES
 from accelcore.errors import DataQualityWarning
-from accelcore.input.levels import level_grid, quantiser_sigma, typical_count
-from accelcore.input.medians import median_of_finite
+from accelcore.input.levels import level_grid, quantiser_sigma
 from accelcore.input.records import records
 from accelcore.input.session import Run, Session
 
@@ -53,8 +58,6 @@ __all__ = ["QualityIssue", "check_session", "excluded_blocks"]
 
 IntArray = NDArray[np.int64]
 
-#: Robust standard deviations per unit of median absolute deviation (normal data).
-MAD_TO_SIGMA = 1.4826
 #: Temperature span, °C, the other runs must have for a run to be called short.
 SHORT_MIN_SPAN_C = 2.0
 
@@ -310,10 +313,8 @@ def _block_noise(run: Run, c: int, window: int) -> tuple[NDArray[np.float64], fl
     noisier, one of more that much quieter: each residual is scaled to the typical
     block's noise (:func:`accelcore.input.levels.typical_count`).
     """
-    y = np.ascontiguousarray(run.output[:, c], dtype=np.float64)
-    scale = np.sqrt(run.count / typical_count(run.count))
-    resid = (y - _running_median(y, window)) * scale
-    return resid, _robust_sigma(resid)
+    resid, sigma = block_noise(run.output[:, c], run.count, window=window)
+    return resid, sigma
 
 
 def _running_median(y: NDArray[np.float64], window: int) -> NDArray[np.float64]:
@@ -322,22 +323,8 @@ def _running_median(y: NDArray[np.float64], window: int) -> NDArray[np.float64]:
 
 
 def _robust_sigma(r: NDArray[np.float64]) -> float:
-    """Robust standard deviation of ``r``: MAD, else mean absolute deviation, else 0."""
-    finite = np.isfinite(r)
-    if not finite.all():
-        r = r[finite]
-    if r.size == 0:
-        return 0.0
-    # Residuals and differences are exactly 0 at many blocks (a running median is one
-    # of its window's values), so 0 is usually their median: checked by counting.
-    center = median_of_finite(r, guess=0.0)
-    deviation = np.subtract(r, center)
-    np.abs(deviation, out=deviation)
-    sigma = MAD_TO_SIGMA * median_of_finite(deviation, overwrite=True)
-    if sigma == 0.0:
-        # The partition above reordered `deviation`; the mean is taken in input order.
-        sigma = math.sqrt(math.pi / 2) * float(np.mean(np.abs(r - center)))
-    return sigma
+    """Robust standard deviation of ``r``: MAD, else mean absolute deviation, else 0 (core)."""
+    return robust_sigma(r)
 
 
 def _check_outliers(run: Run, axis: str, z_max: float, window: int) -> list[QualityIssue]:

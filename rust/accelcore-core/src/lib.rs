@@ -30,6 +30,7 @@ pub mod features;
 pub mod fingerprint;
 pub mod heldout;
 pub mod median;
+pub mod noise;
 pub mod reader;
 pub mod regression;
 pub mod robust;
@@ -46,6 +47,7 @@ pub use features::first_order_lag;
 pub use fingerprint::fingerprint;
 pub use heldout::{BlockedLeastSquares, FoldedLeastSquares, HeldOutFit};
 pub use median::{median, nanmedian};
+pub use noise::{block_noise, robust_sigma, typical_count};
 pub use reader::{
     merge_runs, plan_split, read_run, read_run_digest, read_run_from, read_run_hashed,
     read_run_range, CsvFormat, DigestAlgorithm, RunData, SplitPlan,

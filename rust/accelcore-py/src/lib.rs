@@ -36,8 +36,8 @@ mod _accelcore {
     use super::regression::{PyLeastSquares, PyLstsqSolution};
     #[pymodule_export]
     use super::robust::{
-        py_fingerprint, py_median, py_nanmedian_columns, py_running_median, py_sliding_median,
-        py_sorted_values,
+        py_block_noise, py_fingerprint, py_median, py_nanmedian_columns, py_robust_sigma,
+        py_running_median, py_sliding_median, py_sorted_values,
     };
     #[pymodule_export]
     use super::search::PyTimeConstantSearch;

@@ -221,3 +221,76 @@ pub(crate) fn py_sorted_values<'py>(
     let out = run_detached(py, || Ok(accelcore_core::sorted(&values)))?;
     Ok(out.into_pyarray(py))
 }
+
+/// Robust standard deviation of the finite values of ``r``.
+///
+/// ``1.4826`` times the median absolute deviation from the median; where that is 0
+/// (most values equal), ``sqrt(pi / 2)`` times the mean absolute deviation (NumPy's
+/// summation order); 0 when no value is finite. The figures of
+/// ``accelcore.input.quality``'s NumPy, bit for bit.
+///
+/// Parameters
+/// ----------
+/// r : array_like, shape (n,)
+///     Converted to float64.
+///
+/// Returns
+/// -------
+/// float
+///
+/// Raises
+/// ------
+/// ShapeError
+///     ``r`` is not 1-D.
+#[pyfunction(name = "robust_sigma")]
+#[pyo3(signature = (r, /))]
+pub(crate) fn py_robust_sigma(py: Python<'_>, r: &Bound<'_, PyAny>) -> PyResult<f64> {
+    let r = array1(r, "r dimensions")?;
+    let r = slice_or_copy(&r);
+    run_detached(py, || Ok(accelcore_core::robust_sigma(&r)))
+}
+
+/// Return a run's block residuals about a running median, scaled, and their noise.
+///
+/// Each block's ``y - running_median(y, window)`` times ``sqrt(count / typical)``
+/// (``typical``: the most common count, the smallest of those tied), and the
+/// residuals' :func:`robust_sigma`.
+///
+/// Parameters
+/// ----------
+/// y : array_like, shape (n,)
+///     Block means of one channel (converted to float64).
+/// count : array_like of int64, shape (n,)
+///     Raw samples in each block.
+/// window : int
+///     Running median's window, >= 1 (see :func:`running_median`).
+///
+/// Returns
+/// -------
+/// resid : ndarray of float64, shape (n,)
+/// sigma : float
+///
+/// Raises
+/// ------
+/// ParameterError
+///     ``window < 1``, or ``count`` and ``y`` differ in length.
+/// ShapeError
+///     An input is not 1-D.
+#[pyfunction(name = "block_noise")]
+#[pyo3(signature = (y, count, /, *, window))]
+pub(crate) fn py_block_noise<'py>(
+    py: Python<'py>,
+    y: &Bound<'py, PyAny>,
+    count: PyArrayLike1<'py, i64, AllowTypeChange>,
+    window: i64,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, f64)> {
+    let window = crate::gateway::count("window", window)?;
+    let y = array1(y, "y dimensions")?;
+    let y = slice_or_copy(&y);
+    let counts: Cow<'_, [i64]> = match count.as_slice() {
+        Ok(slice) => Cow::Borrowed(slice),
+        Err(_) => Cow::Owned(count.as_array().iter().copied().collect()),
+    };
+    let (resid, sigma) = run_detached(py, || accelcore_core::block_noise(&y, &counts, window))?;
+    Ok((resid.into_pyarray(py), sigma))
+}
