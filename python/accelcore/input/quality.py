@@ -51,6 +51,7 @@ from accelcore._accelcore import (
 from accelcore.constants import AXES
 from accelcore.errors import DataQualityWarning
 from accelcore.input.levels import level_grid, quantiser_sigma
+from accelcore.input.pinned import pinned_mask, pinned_stretches, pinned_text
 from accelcore.input.records import records
 from accelcore.input.session import Run, Session
 
@@ -70,7 +71,7 @@ class QualityIssue:
     ----------
     kind : str
         ``rate``, ``gaps``, ``nonfinite``, ``truncated``, ``clipping``,
-        ``outliers``, ``step``, ``temperature`` or ``short``.
+        ``outliers``, ``step``, ``temperature``, ``temperature_pinned`` or ``short``.
     message : str
         What was seen and what to do about it.
     run : str or None
@@ -161,6 +162,12 @@ def check_session(
         total_nonfinite += run.stats.n_skipped_nonfinite
         issues += _check_counts(run)
         issues += _check_clipping(run, clip_fraction, clip_min_samples, clip_min_blocks)
+        issues += [  # a temperature probe at its rail (:mod:`accelcore.input.pinned`)
+            QualityIssue(
+                "temperature_pinned", pinned_text(run, p), run=run.label, count=p[1] - p[0]
+            )
+            for p in pinned_stretches(run)
+        ]
         for a, axis in enumerate(AXES):
             if len(run) == 0:
                 continue
@@ -543,7 +550,9 @@ def excluded_blocks(
     clip_min_samples: int = 20,
     clip_min_blocks: int = 3,
 ) -> tuple[NDArray[np.bool_], int, int]:
-    """Decimated blocks a fit should leave out: spikes, and output clipped at a rail.
+    """Decimated blocks a fit should leave out: spikes, rails, a temperature at its rail.
+
+    A temperature pinned at a rail: :mod:`accelcore.input.pinned`.
 
     A spike is a block of x, y or z whose robust z-score against a running
     median of ``outlier_window`` blocks exceeds ``outlier_z``, its residual scaled to
@@ -558,7 +567,7 @@ def excluded_blocks(
     mask : ndarray of bool
         True for the blocks to leave out.
     n_spikes, n_clipped : int
-        How many blocks each reason removed.
+        How many blocks each reason removed (a pinned temperature counts as clipped).
     """
     n = len(run)
     spikes = np.zeros(n, dtype=bool)
@@ -575,6 +584,7 @@ def excluded_blocks(
             near[1:] |= on_rail[:-1]
             near[:-1] |= on_rail[1:]
             clipped |= near
+    clipped |= pinned_mask(run)  # the temperature at its rail: no temperature there
     n_clipped = int(np.count_nonzero(clipped))
     n_spikes = int(np.count_nonzero(spikes & ~clipped))
     return spikes | clipped, n_spikes, n_clipped
