@@ -361,6 +361,11 @@ _SPIKES: dict[tuple[int, int, float], tuple[IntArray, float]] = {}
 _SPIKES_KEPT = 256
 
 
+def forget_spikes() -> None:
+    """Forget the spikes kept per channel content (a first contact with data, as in a benchmark)."""
+    _SPIKES.clear()
+
+
 def _spikes(run: Run, c: int, window: int, z_max: float) -> tuple[IntArray, float]:
     """Spikes of channel ``c``: blocks whose robust z exceeds ``z_max``, and the largest z.
 
