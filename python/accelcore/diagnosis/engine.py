@@ -17,12 +17,8 @@ a catalogue with that lag (every temperature basis lagged, or the rate term adde
 serves the models of later steps the same way. A model with other columns (the lag
 search's trial time constants, chosen from the data one at a time) pushes its own
 rows once, into its own blocked factors. Results are kept (:attr:`Engine.memo_size`
-models): the selection asks for the same models again (step figures, the lag's
-standard error).
-
-A column that some training data cannot identify is held at zero, the later of two
-dependent columns in the model's term order (see
-:meth:`accelcore.core.LeastSquares.solve_identifiable`).
+models). A column some training data cannot identify is held at zero, the later of two
+dependent ones (:meth:`accelcore.core.LeastSquares.solve_identifiable`).
 """
 
 from __future__ import annotations
@@ -58,7 +54,7 @@ from accelcore.result.calibration import AxisModel, Calibration, nominal_sensiti
 from .fits import CV, Fit, fold_coefficients
 from .folds import choose_folds, cut_blocks
 from .parts import cut_parts
-from .windows import choose_windows, difference_noise
+from .windows import choose_windows, noise_floor
 
 __all__ = ["CV", "Engine"]
 
@@ -218,11 +214,9 @@ class Engine:
             ).astype(np.float64)
         self._within_total = {a: float(self._within[a].sum()) for a in AXES}
         self._wsum = float(self.w.sum())
-        # The least held-out squared error any model leaves (its noise): the scatter
-        # inside windows, unless neighbouring samples say the noise is less (a model that
-        # moves inside windows can explain part of that scatter).
+        # The least held-out squared error any model leaves, its noise (:func:`noise_floor`).
         self.noise_floor = {
-            a: min(self._within_total[a], difference_noise(self.y[a], self.w, self.sample_block))
+            a: noise_floor(self.y[a], self.w, self.sample_block, self._within_total[a])
             for a in AXES
         }
         self._memo: dict[tuple[str, tuple[_Key, ...]], HeldOutFit] = {}

@@ -34,6 +34,7 @@ __all__ = [
     "Windows",
     "choose_windows",
     "difference_noise",
+    "noise_floor",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -212,3 +213,13 @@ def difference_noise(y: FloatArray, w: FloatArray, block: IntArray) -> float:
     d = (y[1:] - y[:-1])[pair]
     inv = 1.0 / w[1:][pair] + 1.0 / w[:-1][pair]
     return float(np.mean(d * d / inv)) * float(np.count_nonzero(w > 0))
+
+
+def noise_floor(y: FloatArray, w: FloatArray, block: IntArray, within: float) -> float:
+    """Return the least weighted squared error any model of ``y`` leaves: its noise.
+
+    ``within`` (the samples' scatter about their window means, in every model's
+    held-out error as it is), unless :func:`difference_noise` says the noise is less (a
+    model that moves inside windows can explain part of that scatter).
+    """
+    return min(within, difference_noise(y, w, block))
