@@ -27,18 +27,10 @@ use crate::robust::{key, value};
 /// ```
 #[must_use]
 pub fn median(values: &[f64]) -> f64 {
-    let mut nan = false;
-    let mut keys: Vec<u64> = values
-        .iter()
-        .map(|&v| {
-            nan |= v.is_nan();
-            key(v)
-        })
-        .collect();
-    if nan {
-        return f64::NAN;
+    match keys_of(values) {
+        (_, true) => f64::NAN,
+        (mut keys, false) => median_of_keys(&mut keys),
     }
-    median_of_keys(&mut keys)
 }
 
 /// Median of the values of `values` that are not NaN, as `np.nanmedian` gives it,
@@ -54,20 +46,26 @@ pub fn median(values: &[f64]) -> f64 {
 /// ```
 #[must_use]
 pub fn nanmedian(values: &[f64]) -> f64 {
-    let mut nan = false;
-    let mut keys: Vec<u64> = values
-        .iter()
-        .map(|&v| {
-            nan |= v.is_nan();
-            key(v)
-        })
-        .collect();
+    let (mut keys, nan) = keys_of(values);
     if nan {
         // NaN keys lie outside those of the infinities (either sign of NaN).
         let (lowest, highest) = (key(f64::NEG_INFINITY), key(f64::INFINITY));
         keys.retain(|&k| (lowest..=highest).contains(&k));
     }
     median_of_keys(&mut keys)
+}
+
+/// The [`key`] of every value, in one pass, and whether any value is NaN.
+fn keys_of(values: &[f64]) -> (Vec<u64>, bool) {
+    let mut nan = false;
+    let keys = values
+        .iter()
+        .map(|&v| {
+            nan |= v.is_nan();
+            key(v)
+        })
+        .collect();
+    (keys, nan)
 }
 
 /// Median of non-NaN values given as [`key`]s (reordered in place); NaN when empty.
