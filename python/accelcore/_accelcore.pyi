@@ -1001,6 +1001,27 @@ def block_noise(
         An input is not 1-D.
     """
 
+def typical_count(count: ArrayLike, /) -> int:
+    """Return the samples most blocks of a run hold: the most common of ``count``.
+
+    The smallest of the counts tied for most common (``np.bincount(count).argmax()``);
+    1 when ``count`` is empty.
+
+    Parameters
+    ----------
+    count : array_like of int64, shape (n,)
+        Raw samples in each block.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    ShapeError
+        ``count`` is not 1-D.
+    """
+
 def running_median(y: ArrayLike, /, *, window: int) -> NDArray[np.float64]:
     """Centred running median of ``y`` over ``2 * (window // 2) + 1`` values.
 

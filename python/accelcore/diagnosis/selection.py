@@ -547,8 +547,8 @@ def _engine_beside_checks(
     (both spend most of their time in the core and NumPy), with the interpreter's
     short switch interval (:func:`accelcore.pools.beside`).
     """
+    threads = search.search_threads or os.cpu_count() or 1
     if quality is not None:
-        threads = search.search_threads or os.cpu_count() or 1
         return Engine(session, base, threads=threads, **options), quality
     window: tuple[float, float] | Literal["logged"] = (
         base.window_c if all(map(math.isfinite, base.window_c)) else "logged"
@@ -556,9 +556,7 @@ def _engine_beside_checks(
     with beside():
         pool = shared_pool("accelcore-quality", 1)
         checked = pool.submit(check_session, session, window_c=window, warn=False)
-        threads = search.search_threads or os.cpu_count() or 1
-        eng = Engine(session, base, threads=threads, **options)
-        return eng, checked.result()
+        return Engine(session, base, threads=threads, **options), checked.result()
 
 
 def _again_with_events(

@@ -20,6 +20,8 @@ from numpy.typing import NDArray
 from accelcore import core
 
 __all__ = [
+    "MIN_SYSTEMATIC_CUT",
+    "MIN_SYSTEMATIC_MG",
     "Verdict",
     "accept",
     "chi2_sf",
@@ -32,6 +34,13 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+
+#: Least cut of the systematic held-out RMS error (above the noise floor) that meets
+#: the least improvement instead of the whole error's cut (:func:`accept`).
+MIN_SYSTEMATIC_CUT = 0.2
+
+#: Least RMS, mg, that a candidate accepted on its systematic cut must take off it.
+MIN_SYSTEMATIC_MG = 0.1
 
 
 def chi2_sf(chi2: float, dof: int) -> float:
@@ -82,7 +91,7 @@ def accept(
     alpha: float,
     floor: float = 0.0,
     least: float = 0.0,
-    min_systematic: float = 0.2,
+    min_systematic: float = MIN_SYSTEMATIC_CUT,
 ) -> Verdict:
     """Judge a candidate by the diagnosis' rule (:class:`accelcore.core.AcceptanceRule`).
 
@@ -95,7 +104,8 @@ def accept(
     session of the part sees of a missing effect once its own noise is averaged out. On
     an axis whose noise is large next to its systematic error, a real effect cuts the
     whole error by a few percent and the systematic one by most of it. Such a candidate
-    must cut the systematic RMS error by ``min_systematic`` or more (a fifth: what is
+    must cut the systematic RMS error by ``min_systematic`` or more (a fifth,
+    :data:`MIN_SYSTEMATIC_CUT`: what is
     left beside a disturbance no term can follow is often a tenth of it, a partial fit
     of the disturbance), take ``least`` or more off the squared error (an effect too
     small to matter is not added however significant), and pass the same test.

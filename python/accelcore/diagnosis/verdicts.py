@@ -33,11 +33,10 @@ from .between import (
 from .engine import CV, Engine
 from .inside import alike, is_rough, per_sample
 from .space import Spec, is_event, without
-from .stats import accept, paired_test
+from .stats import MIN_SYSTEMATIC_MG, accept, paired_test
 
 __all__ = [
     "GENERIC_MARGIN",
-    "MIN_SYSTEMATIC_MG",
     "Candidate",
     "Tried",
     "best_family",
@@ -45,10 +44,6 @@ __all__ = [
     "judge_between_runs",
     "redundant",
 ]
-
-#: Least RMS, mg, that a candidate accepted on its cut of the systematic held-out error
-#: (the error above the scatter inside windows, :func:`.stats.accept`) must take off it.
-MIN_SYSTEMATIC_MG = 0.1
 
 #: A generic family (``smooth``) is chosen over the best named one only when it cuts
 #: the held-out squared error by this factor more: the named ones are its special

@@ -14,6 +14,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from accelcore._accelcore import typical_count as core_typical_count
+
 __all__ = ["level_grid", "quantiser_sigma", "typical_count"]
 
 
@@ -21,9 +23,10 @@ def typical_count(count: NDArray[np.int64]) -> int:
     """Return the samples most blocks of a run hold (a full block; 1 for a log kept whole).
 
     The most common count, not the largest: a run's full blocks do not depend on where
-    a file cut it, nor on a block that timing jitter gave one sample more.
+    a file cut it, nor on a block that timing jitter gave one sample more. The core's
+    rule, which the spike screen's block noise scales by (:func:`block_noise`).
     """
-    return int(np.bincount(count).argmax()) if count.size else 1
+    return core_typical_count(count)
 
 
 def level_grid(y: NDArray[np.float64], count: NDArray[np.int64]) -> float | None:

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore._accelcore import block_noise, running_median
+from accelcore._accelcore import block_noise, fingerprint, running_median
 from accelcore.constants import AXES
 from accelcore.input.run import Run
 
@@ -63,13 +63,28 @@ def pinned_stretches(run: Run) -> list[PinnedStretch]:
             if e - s < _SMOOTH or run.time_s[e - 1] - run.time_s[s] < MIN_PINNED_S:
                 continue
             if sigmas is None:
-                sigmas = [
-                    block_noise(run.output[:, c], run.count, window=_SMOOTH)[1] for c in range(3)
-                ]
+                sigmas = [_noise(run, c) for c in range(3)]
             found = _hump(run, int(s), int(e), sigmas)
             if found is not None:
                 out.append((int(s), int(e), extreme, *found))
     return out
+
+
+#: Block noise per channel content (its fingerprint): every fit of a run screens it.
+_NOISE: dict[int, float] = {}
+_NOISE_KEPT = 256
+
+
+def _noise(run: Run, c: int) -> float:
+    """Return channel ``c``'s block noise (:func:`block_noise`'s sigma), kept per content."""
+    key = fingerprint(run.output[:, c], run.count)
+    found = _NOISE.get(key)
+    if found is None:
+        found = block_noise(run.output[:, c], run.count, window=_SMOOTH)[1]
+        if len(_NOISE) >= _NOISE_KEPT:
+            _NOISE.clear()
+        _NOISE[key] = found
+    return found
 
 
 def _hump(run: Run, s: int, e: int, sigmas: list[float]) -> tuple[int, float] | None:

@@ -39,8 +39,11 @@ pub(crate) type In1<'py> = PyArrayLike1<'py, f64, AllowTypeChange>;
 /// A 2-D float64 input: any array-like, converted to float64 if needed.
 pub(crate) type In2<'py> = PyArrayLike2<'py, f64, AllowTypeChange>;
 
-/// Borrow a contiguous 1-D array as a slice, or make one documented copy of a strided one.
-pub(crate) fn slice_or_copy<'a>(array: &'a In1<'_>) -> Cow<'a, [f64]> {
+/// Borrow a contiguous 1-D array (float64 samples, int64 counts) as a slice, or make one
+/// documented copy of a strided one.
+pub(crate) fn slice_or_copy<'a, T: numpy::Element + Copy>(
+    array: &'a PyArrayLike1<'_, T, AllowTypeChange>,
+) -> Cow<'a, [T]> {
     match array.as_slice() {
         Ok(slice) => Cow::Borrowed(slice),
         Err(_) => Cow::Owned(array.as_array().iter().copied().collect()),

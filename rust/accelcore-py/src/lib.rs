@@ -37,7 +37,7 @@ mod _accelcore {
     #[pymodule_export]
     use super::robust::{
         py_block_noise, py_fingerprint, py_median, py_nanmedian_columns, py_robust_sigma,
-        py_running_median, py_sliding_median, py_sorted_values,
+        py_running_median, py_sliding_median, py_sorted_values, py_typical_count,
     };
     #[pymodule_export]
     use super::search::PyTimeConstantSearch;

@@ -1,7 +1,5 @@
 //! `running_median` and `sliding_median`: the medians of the data-quality checks.
 
-use std::borrow::Cow;
-
 use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArrayLike1};
 use pyo3::prelude::*;
 
@@ -184,10 +182,7 @@ pub(crate) fn py_fingerprint(
 ) -> PyResult<u128> {
     let values = array1(values, "values dimensions")?;
     let values = slice_or_copy(&values);
-    let counts: Cow<'_, [i64]> = match counts.as_slice() {
-        Ok(slice) => Cow::Borrowed(slice),
-        Err(_) => Cow::Owned(counts.as_array().iter().copied().collect()),
-    };
+    let counts = slice_or_copy(&counts);
     run_detached(py, || Ok(accelcore_core::fingerprint(&values, &counts)))
 }
 
@@ -287,10 +282,35 @@ pub(crate) fn py_block_noise<'py>(
     let window = crate::gateway::count("window", window)?;
     let y = array1(y, "y dimensions")?;
     let y = slice_or_copy(&y);
-    let counts: Cow<'_, [i64]> = match count.as_slice() {
-        Ok(slice) => Cow::Borrowed(slice),
-        Err(_) => Cow::Owned(count.as_array().iter().copied().collect()),
-    };
+    let counts = slice_or_copy(&count);
     let (resid, sigma) = run_detached(py, || accelcore_core::block_noise(&y, &counts, window))?;
     Ok((resid.into_pyarray(py), sigma))
+}
+
+/// Return the samples most blocks of a run hold: the most common of ``count``.
+///
+/// The smallest of the counts tied for most common (``np.bincount(count).argmax()``);
+/// 1 when ``count`` is empty.
+///
+/// Parameters
+/// ----------
+/// count : array_like of int64, shape (n,)
+///     Raw samples in each block.
+///
+/// Returns
+/// -------
+/// int
+///
+/// Raises
+/// ------
+/// ShapeError
+///     ``count`` is not 1-D.
+#[pyfunction(name = "typical_count")]
+#[pyo3(signature = (count, /))]
+pub(crate) fn py_typical_count(
+    py: Python<'_>,
+    count: PyArrayLike1<'_, i64, AllowTypeChange>,
+) -> PyResult<i64> {
+    let counts = slice_or_copy(&count);
+    run_detached(py, || Ok(accelcore_core::typical_count(&counts)))
 }
