@@ -104,6 +104,8 @@ TEMPERATURE_STEP_MG: Final = (0.0, 0.0, 12.0)
 OUTPUT_STEP_MG: Final = 10.0
 WARM_UP_MG: Final = 10.0
 WARM_UP_TAU_S: Final = 300.0
+#: A fixture creeping half a degree an hour: 8.7 mg on a cross axis by the end of a 1 h run.
+GRAVITY_DRIFT_DEG_PER_H: Final = 0.5
 
 
 @dataclass(frozen=True)
@@ -220,6 +222,11 @@ def _cases(run_s: float) -> tuple[ValidationCase, ...]:
             "tilted run (1.5° about x, OZ+)",
             events=(se.RunTilt("OZ+", 1.5, "x"),),
             expect="cut 1.5x",
+        ),
+        ValidationCase(
+            f"gravity drifting ({GRAVITY_DRIFT_DEG_PER_H:g}°/h about x, every run)",
+            events=(se.GravityDrift(GRAVITY_DRIFT_DEG_PER_H, "x"),),
+            expect="rise <= 5%",
         ),
         ValidationCase(
             f"output step ({OUTPUT_STEP_MG:g} mg, OX+ mid-run)",

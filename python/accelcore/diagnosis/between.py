@@ -363,11 +363,15 @@ def cross_given_back(
 def cross_left_out(rows: Sequence[Mapping[str, object]], min_improvement: float) -> str:
     """Return the warning line of a starting model's cross-axis gains left out.
 
-    ``rows``: the selection's candidate rows; the ``misalignment`` ones of its first
-    step give the figures (the run-level cut of each axis, the F test's p when one
-    was made).
+    ``rows``: the selection's candidate rows; the ``misalignment`` ones of the last
+    step that tried it give the figures (the run-level cut of each axis, the F test's
+    p when one was made): the verdict that stands. A first step's figures may be those
+    of what another family took at that step (a gravity direction drifting in every
+    run holds a misalignment's shape on average).
     """
-    first = [r for r in rows if r["family"] == "misalignment" and r["step"] == 1]
+    tried = [r for r in rows if r["family"] == "misalignment"]
+    last = max((int(r["step"]) for r in tried), default=0)  # type: ignore[call-overload]
+    first = [r for r in tried if r["step"] == last]
     figures = ", ".join(
         f"{r['axis']} {float(r['cut_between_runs_pct']):.2g} %"  # type: ignore[arg-type]
         + (

@@ -27,7 +27,7 @@ structure, naming the observable):
 
 Session events (one session's, not the part's; defined in
 :mod:`accelcore.simulate.events` and re-exported here): :class:`RunTilt`,
-:class:`OutputStep`, :class:`WarmUp`, :class:`TurnOnBias`.
+:class:`GravityDrift`, :class:`OutputStep`, :class:`WarmUp`, :class:`TurnOnBias`.
 """
 
 from __future__ import annotations
@@ -42,12 +42,13 @@ import numpy.typing as npt
 
 from accelcore._accelcore import first_order_lag
 from accelcore.simulate.chain import RunState, Stage
-from accelcore.simulate.events import OutputStep, RunTilt, TurnOnBias, WarmUp
+from accelcore.simulate.events import GravityDrift, OutputStep, RunTilt, TurnOnBias, WarmUp
 from accelcore.simulate.runs import SimulatedArrays
 
 __all__ = [
     "CompressorCycle",
     "Drift",
+    "GravityDrift",
     "Misalignment",
     "Nonlinearity",
     "OffsetCurvature",

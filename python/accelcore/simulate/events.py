@@ -10,6 +10,8 @@ event into the compensation of other data is wrong there.
 
 - :class:`RunTilt`: the positioner left one run tilted: the gravity vector of
   that run is rotated by a small angle about a fixture axis;
+- :class:`GravityDrift`: the fixture creeps: in every run the gravity vector
+  turns about a fixture axis at a steady rate from the run's start;
 - :class:`OutputStep`: the part was knocked: a step of the offset at a given
   time into one run;
 - :class:`WarmUp`: after power-on at the start of a run, an offset that decays
@@ -35,7 +37,7 @@ import numpy.typing as npt
 
 from accelcore.simulate.chain import RunState, Stage
 
-__all__ = ["OutputStep", "RunTilt", "TurnOnBias", "WarmUp", "rotation_matrix"]
+__all__ = ["GravityDrift", "OutputStep", "RunTilt", "TurnOnBias", "WarmUp", "rotation_matrix"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -148,6 +150,53 @@ class RunTilt:
         if _matches(self.run, state):
             rot = rotation_matrix(self.angle_deg, self.axis)
             state.specific_force_g = state.specific_force_g @ rot.T
+
+
+@dataclass(frozen=True)
+class GravityDrift:
+    """The fixture creeps: in every run, gravity turns about ``axis`` at ``deg_per_h``.
+
+    At ``t`` seconds after the run's first sample the run's specific force is rotated
+    by ``deg_per_h · t / 3600`` degrees about ``axis`` (a fixture settling under the
+    part's weight, a positioner's stage sagging): the run starts square and leaks a
+    growing share of its gravity into a cross axis. An ``"OZ+"`` run turning about
+    ``x`` reads ``(0, -sin θ(t), cos θ(t))`` g, an ``"OX+"`` run about ``x`` nothing.
+
+    Parameters
+    ----------
+    deg_per_h : float
+        Rate of the turn, degrees per hour.
+    axis : {"x", "y", "z"} or 3 floats, default "x"
+        Rotation axis in the sensor frame.
+    """
+
+    deg_per_h: float
+    axis: str | tuple[float, float, float] = "x"
+
+    def __post_init__(self) -> None:
+        if not math.isfinite(self.deg_per_h):
+            raise ValueError(f"deg_per_h must be finite, got {self.deg_per_h!r}")
+        rotation_matrix(0.0, self.axis)
+
+    @property
+    def name(self) -> str:
+        """``"gravity_drift"``."""
+        return "gravity_drift"
+
+    @property
+    def stage(self) -> Stage:
+        """``"stimulus"``."""
+        return "stimulus"
+
+    def apply(self, state: RunState, rng: np.random.Generator) -> None:
+        """Rotate each sample's ``state.specific_force_g`` by the angle reached at its time."""
+        u = _unit_axis(self.axis)
+        theta = np.radians(self.deg_per_h * (state.time_s - state.time_s[0]) / 3600.0)
+        g = state.specific_force_g
+        # Rodrigues' rotation of every row by its own angle about the unit axis u.
+        cos, sin = np.cos(theta)[:, None], np.sin(theta)[:, None]
+        along = (g @ u)[:, None] * u
+        state.specific_force_g = g * cos + np.cross(u, g) * sin + along * (1.0 - cos)
 
 
 @dataclass(frozen=True)
