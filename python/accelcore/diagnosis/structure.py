@@ -29,6 +29,10 @@ __all__ = ["MIN_TEMPERATURE_SPAN_C", "TEMPERATURE_FAMILIES", "structures", "temp
 #: the thermometer, or time seen through a slow wander).
 MIN_TEMPERATURE_SPAN_C = 1.0
 
+#: Fewest engine windows per bin for the structure check to bin windows rather than
+#: samples (:func:`structures`).
+MIN_WINDOWS_PER_BIN = 16
+
 #: Effect families driven by temperature.
 TEMPERATURE_FAMILIES = ("offset_curvature", "sensitivity_curvature", "thermal_lag")
 
@@ -67,8 +71,14 @@ def structures(
     part = eng.sample_part
     # Samples are binned by the engine's windows (consecutive samples of one block):
     # a bin's mean is then the count-weighted mean of its windows' means, and each
-    # observable is sorted once per window, not once per sample.
+    # observable is sorted once per window, not once per sample. Where the windows are
+    # too few to fill the bins several times over (a short static hold: 30 windows of
+    # 15 s for 30 bins), each bin would be one window whatever the observable, and every
+    # observable would show the same structure (the windows' scatter): the samples are
+    # binned themselves.
     first = eng.window_start
+    if first.size < MIN_WINDOWS_PER_BIN * n_bins:
+        first = np.arange(eng.n, dtype=np.int64)
     count = np.diff(np.append(first, eng.n)).astype(np.float64)
 
     def means(values: FloatArray) -> FloatArray:
