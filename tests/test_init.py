@@ -177,10 +177,29 @@ def test_guess_columns_and_gravity() -> None:
     assert orientation_from_means({"a": np.array([0.7, 0.7, 0.0])}, "g") == {}
 
 
-def test_no_logs_or_no_temperature(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_no_logs_or_no_time(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     code, _, err = _run(["init", str(tmp_path)], capsys)
     assert code == 1 and "no log files" in err
-    (tmp_path / "x_pos.csv").write_text("time,x,y,z\n0,0,0,1\n1,0,0,1\n")
+    (tmp_path / "x_pos.csv").write_text("n,x,y,z\n0,0,0,1\n1,0,0,1\n")
     code, _, err = _run(["init", str(tmp_path)], capsys)
-    assert code == 1 and "temperature" in err and "x_pos.csv" in err
+    assert code == 1 and "no column recognised as time" in err and "x_pos.csv" in err
     assert not (tmp_path / "session.toml").exists()
+
+
+def test_logs_without_temperature_give_a_session_at_one_temperature(
+    original: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """imucal's six positions log no temperature: init says so and writes temperature = ""."""
+    folder = tmp_path / "s"
+    folder.mkdir()
+    for f in original.glob("*.csv"):
+        pd.read_csv(f).drop(columns=["temp_c"]).to_csv(folder / f.name, index=False)
+    code, out, err = _run(["init", str(folder)], capsys)
+    assert code == 0, err
+    assert 'no temperature column: temperature = ""' in out
+    assert "temperature=" not in out  # the columns line lists the columns found
+    assert not SessionFormat.read(folder).has_temperature
+    session = accelcore.load_session(folder, cache=False)
+    assert not session.has_temperature
+    cal = accelcore.calibrate(session)
+    assert any("no temperature logged" in n for n in cal.notes), cal.notes

@@ -52,6 +52,11 @@ def test_the_same_hold_cut_into_files_reports_the_same_structure() -> None:
     for cut in ([], [22_465], [9_000, 30_001]):
         d = diagnose(_session(cut))
         assert d.effects == (), d.effects
+        # Said as it is: nothing logged, not "spans 0.00 °C".
+        assert "no temperature was logged: no temperature-driven effect is tried or reported" in (
+            d.warnings
+        ), d.warnings
+        assert not any("spans" in w for w in d.warnings), d.warnings
         found.append({(s.axis, s.observable) for s in d.unexplained})
     # The rise of z against time, whatever the cut; no gyro column (they are noise).
     assert found[0] == found[1] == found[2] == {("z", "elapsed_s")}, found

@@ -454,8 +454,12 @@ def diagnose(
     if span < MIN_TEMPERATURE_SPAN_C:
         tried = [f for f in tried if f not in TEMPERATURE_FAMILIES]
         warn.append(
-            f"the temperature spans {span:.2f} °C (less than {MIN_TEMPERATURE_SPAN_C:g} °C): no "
-            "temperature-driven effect is tried or reported"
+            (
+                f"the temperature spans {span:.2f} °C (less than {MIN_TEMPERATURE_SPAN_C:g} °C)"
+                if session.has_temperature
+                else "no temperature was logged"
+            )
+            + ": no temperature-driven effect is tried or reported"
         )
     elif caveat := one_way(eng.leg_kinds, eng.rate, eng.elapsed_s):
         warn.append(caveat)

@@ -463,7 +463,8 @@ fn map_columns(
     let mut missing = Vec::new();
     let mut need = |name: &str| {
         let found = find(name);
-        if found.is_none() {
+        // A name asked for twice (the time and the temperature both "n") is missing once.
+        if found.is_none() && !missing.iter().any(|m| m == name) {
             missing.push(name.to_string());
         }
         found.unwrap_or(0)

@@ -399,3 +399,31 @@ proptest! {
         formats::check(&data);
     }
 }
+
+#[test]
+fn a_missing_column_asked_for_twice_is_named_once() {
+    // A log without temperature reads its time column in the temperature's place: both
+    // "n". A preamble line in the header's place lacks it, and says so once.
+    let format = CsvFormat {
+        time_column: "n".into(),
+        temperature_column: "n".into(),
+        channel_columns: vec!["ax".into(), "ay".into(), "az".into()],
+        ..CsvFormat::default()
+    };
+    let got = read_run_from(
+        b"Fs,100\nn,ax,ay,az\n0,1,2,3\n".as_slice(),
+        "dump.csv",
+        &format,
+        DecimatorConfig::default(),
+    );
+    match got {
+        Err(Error::Parse { line, reason, .. }) => {
+            assert_eq!(line, 1, "{reason}");
+            assert!(
+                reason.starts_with("missing column(s) 'n', 'ax', 'ay', 'az' in the header"),
+                "{reason}"
+            );
+        }
+        other => panic!("expected a parse error, got {other:?}"),
+    }
+}

@@ -119,16 +119,20 @@ def _init_runs(folder: Path, logs: list[Path], args: argparse.Namespace, out: Te
     delimiter = DELIMITERS[args.delimiter] if args.delimiter else delimiter_of(first_line)
     header = [h.strip() for h in first_line.rstrip("\r\n").split(delimiter)]
     columns = guess_columns(header)
-    missing = [r for r in ROLES if r not in columns]
+    # Without a temperature column the session is one at one temperature (imucal's
+    # six positions): `temperature = ""`, said in the summary.
+    missing = [r for r in ROLES if r not in columns and r != "temperature"]
     if missing:
         raise CliDataError(
             f"{logs[0]}: no column recognised as {', '.join(missing)} among {', '.join(header)}"
         )
+    columns.setdefault("temperature", "")
     time_unit = time_unit_of(columns["time"])
     frames: dict[str, pd.DataFrame] = {}
+    used = [c for c in columns.values() if c]
     for log in logs:
         try:
-            frames[log.name] = pd.read_csv(log, sep=delimiter, usecols=list(columns.values()))
+            frames[log.name] = pd.read_csv(log, sep=delimiter, usecols=used)
         except (ValueError, pd.errors.ParserError) as exc:
             raise CliDataError(
                 f"{log}: not a log of the same layout as {logs[0].name}: {exc}"
@@ -171,7 +175,12 @@ def _init_runs(folder: Path, logs: list[Path], args: argparse.Namespace, out: Te
     print(f"  units {units}{'' if args.units else ' (guessed from the output size)'}, "
           f"rate {rate:g} Hz{'' if args.rate_hz else ' (median time step)'}, "
           f"delimiter {shown!r}, time unit {time_unit}", file=out)  # fmt: skip
-    print("  columns: " + ", ".join(f"{r}={columns[r]}" for r in ROLES), file=out)
+    print("  columns: " + ", ".join(f"{r}={columns[r]}" for r in ROLES if columns[r]), file=out)
+    if not columns["temperature"]:
+        print(
+            '  no temperature column: temperature = "" (a calibration at one temperature)',
+            file=out,
+        )
     width = max(len(n) for n in runs)
     for name, orientation in runs.items():
         print(f"  {name:<{width}}  {orientation}  ({how[name]})", file=out)
