@@ -118,11 +118,17 @@ class RunSpec:
         The log file: the session folder joined with ``file``.
     orientation : str
         ``OX+`` ... ``OZ-`` (upper case, stripped).
+    continues : bool or None
+        The optional ``continues`` key: True, this log continues the run listed
+        before it (a logger that starts a new file, its clock restarted or not);
+        False, it is a run of its own even where its clock follows on (a new
+        power-on); None (absent), told from the clock.
     """
 
     file: str
     path: Path
     orientation: str
+    continues: bool | None = None
 
     @property
     def gravity_g(self) -> NDArray[np.float64]:
@@ -410,7 +416,7 @@ TOP_KEYS = (
     "lab",
     *LOG_KEYS,
 )
-RUN_KEYS = ("file", "orientation")
+RUN_KEYS = ("file", "orientation", "continues")
 LAB_KEYS = ("date", "operator", "chamber", "reference_probe", "notes")
 
 
@@ -512,7 +518,20 @@ def _runs(tables: object, folder: Path, where: str, *, check_files: bool) -> tup
                 f"[[run]] #{first} ({specs[first - 1].file!r}); "
                 "each run needs its own log"
             )
-        specs.append(RunSpec(str(table["file"]), file, str(table["orientation"]).strip().upper()))
+        orientation = str(table["orientation"]).strip().upper()
+        continues = table.get("continues")
+        if continues is not None and not isinstance(continues, bool):
+            raise SessionFormatError(
+                f"{where}: [[run]] #{i}: continues must be true or false, got {continues!r}"
+            )
+        if continues and (i == 1 or specs[-1].orientation != orientation):
+            before = "no [[run]]" if i == 1 else f"[[run]] #{i - 1} ({specs[-1].orientation})"
+            raise SessionFormatError(
+                f"{where}: [[run]] #{i} ({orientation}) says continues = true, but {before} "
+                "comes before it in that orientation; list the pieces of one run in order, "
+                "one after the other"
+            )
+        specs.append(RunSpec(str(table["file"]), file, orientation, continues))
     return tuple(specs)
 
 

@@ -5,9 +5,11 @@ user who stores each leg of the cycle apart — is still one record of one part 
 one orientation. Everything that depends on a sample's history (a thermal lag's
 state, the smoothed dT/dt, the time since the start, the legs of the temperature
 cycle, the held-out folds) must see it whole, or the answer would depend on where
-the files were cut. :func:`records` joins runs of the same orientation whose
-absolute times follow each other within a few block intervals; runs that restart
-their clock, overlap, or leave a real pause stay apart.
+the files were cut. :func:`records` joins what ``session.toml`` says continues
+(``continues = true``), and runs of the same orientation whose absolute times follow
+each other within a few block intervals; runs that restart their clock, overlap, or
+leave a real pause stay apart unless declared, and ``continues = false`` keeps a run
+apart whatever its clock (a new power-on).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from accelcore.errors import SessionFormatError
 from accelcore.input.session import Run, RunStats, Session
 
 __all__ = ["CONTIGUOUS_BLOCKS", "record_names", "records"]
@@ -83,9 +86,27 @@ def _stats(parts: Sequence[Run]) -> RunStats:
     )
 
 
+def _follow_on(parts: Sequence[Run]) -> list[Run]:
+    """Return the pieces with a restarted clock moved to follow the piece before them.
+
+    A piece declared to continue (``continues = true``) whose clock starts at or before
+    the previous piece's end (a logger that restarts its clock with every file) is
+    shifted to start one block interval after it; a clock that runs on is kept.
+    """
+    out = [parts[0]]
+    for p in parts[1:]:
+        prev = out[-1]
+        if len(p) and len(prev) and p.time_s[0] <= prev.time_s[-1]:
+            step = _interval_s(prev) or _interval_s(p) or 1.0
+            p = dataclasses.replace(p, time_s=p.time_s + (prev.time_s[-1] + step - p.time_s[0]))
+        out.append(p)
+    return out
+
+
 def _join(parts: Sequence[Run]) -> Run:
     if len(parts) == 1:
         return parts[0]
+    parts = _follow_on(parts)
     return Run(
         orientation=parts[0].orientation,
         gravity_g=parts[0].gravity_g,
@@ -96,17 +117,42 @@ def _join(parts: Sequence[Run]) -> Run:
         extras={k: np.concatenate([p.extras[k] for p in parts]) for k in parts[0].extras},
         source=parts[0].source,
         stats=_stats(parts),
+        continues=parts[0].continues,
     )
+
+
+def _declared(runs: Sequence[Run]) -> list[list[int]]:
+    """Chains of runs in listing order, each run that says ``continues`` after the one before."""
+    chains: list[list[int]] = []
+    for i, run in enumerate(runs):
+        if run.continues and chains and runs[chains[-1][-1]].orientation == run.orientation:
+            prev = runs[chains[-1][-1]]
+            if set(prev.extras) != set(run.extras):
+                raise SessionFormatError(
+                    f"{run.label} says continues = true, but its extra columns "
+                    f"({', '.join(sorted(run.extras)) or 'none'}) are not those of "
+                    f"{prev.label} ({', '.join(sorted(prev.extras)) or 'none'}), the run it "
+                    "continues"
+                )
+            chains[-1].append(i)
+        else:
+            chains.append([i])
+    return chains
 
 
 def records(session: Session) -> tuple[Run, ...]:
     """Return the session's runs with contiguous pieces of one log joined, in session order.
 
-    Runs of one orientation are joined when, in absolute time, each starts after
-    the previous one ends by at most :data:`CONTIGUOUS_BLOCKS` block intervals
-    (whatever order the session lists them in) and they log the same extra
-    columns. Every other run is returned as it is,
-    so a session of one file per orientation gives back its runs unchanged.
+    What ``session.toml`` says comes first: a run whose ``continues`` is true is
+    joined to the run listed before it (its clock, if restarted, moved to follow on);
+    one whose ``continues`` is false starts a record. The others are told from the
+    clock: runs of one orientation are joined when, in absolute time, one starts after
+    another ends by at most :data:`CONTIGUOUS_BLOCKS` block intervals (whatever order
+    the session lists them in) and they log the same extra columns. Where a piece could
+    continue more than one run (two power-ons, each timed from 0, cut into files with
+    their clocks kept), it continues the one that ends nearest before it, then the one
+    listed nearest before it. Every other run is returned as it is, so a session of one
+    file per orientation gives back its runs unchanged.
 
     Parameters
     ----------
@@ -119,23 +165,35 @@ def records(session: Session) -> tuple[Run, ...]:
         its arrays are the pieces' in time order. Records come in the order of
         their first-listed piece.
     """
+    runs = session.runs
+    chains = _declared(runs)
+    pieces = [_join([runs[i] for i in c]) for c in chains]
+    first = [c[0] for c in chains]
     order = sorted(
-        range(len(session.runs)),
-        key=lambda i: (
-            session.runs[i].orientation,
-            float(session.runs[i].time_s[0]) if len(session.runs[i]) else np.inf,
-            i,
+        range(len(pieces)),
+        key=lambda k: (
+            pieces[k].orientation,
+            float(pieces[k].time_s[0]) if len(pieces[k]) else np.inf,
+            first[k],
         ),
     )
-    typical_s = _typical_interval_s(session.runs)
+    typical_s = _typical_interval_s(runs)
     groups: list[list[int]] = []
-    for i in order:
-        if groups and _continues(session.runs[groups[-1][-1]], session.runs[i], typical_s):
-            groups[-1].append(i)
+    for k in order:
+        if pieces[k].continues is False:
+            groups.append([k])
+            continue
+        near = [
+            (float(pieces[k].time_s[0] - pieces[g[-1]].time_s[-1]), abs(first[k] - first[g[-1]]), n)
+            for n, g in enumerate(groups)
+            if _continues(pieces[g[-1]], pieces[k], typical_s)
+        ]
+        if near:
+            groups[min(near)[2]].append(k)
         else:
-            groups.append([i])
-    groups.sort(key=lambda g: min(g))
-    return tuple(_join([session.runs[i] for i in g]) for g in groups)
+            groups.append([k])
+    groups.sort(key=lambda g: min(first[k] for k in g))
+    return tuple(_join([pieces[k] for k in g]) for g in groups)
 
 
 def record_names(recs: Sequence[Run]) -> list[str]:

@@ -115,6 +115,11 @@ class Run:
         The log file, when read from disk.
     stats : RunStats
         What the reader saw in the raw log.
+    continues : bool or None
+        What ``session.toml`` says of this run's log (its ``continues`` key): True,
+        it continues the run listed before it (one record, one power-on, whatever its
+        clock); False, it starts a record of its own; None, told from the clock
+        (:func:`accelcore.input.records.records`).
     """
 
     orientation: str
@@ -126,6 +131,7 @@ class Run:
     extras: dict[str, NDArray[np.float64]]
     source: str | None
     stats: RunStats
+    continues: bool | None = None
 
     def __len__(self) -> int:
         return int(self.time_s.shape[0])

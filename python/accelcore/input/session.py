@@ -345,6 +345,7 @@ def _make_run(
     stats: RunStats,
     *,
     temperature: bool = True,
+    continues: bool | None = None,
 ) -> Run:
     """Build a run from decimated blocks; without ``temperature``, its temperatures are NaN."""
     channels = blocks.channels
@@ -361,6 +362,7 @@ def _make_run(
         extras=extras,
         source=source,
         stats=stats,
+        continues=continues,
     )
 
 
@@ -523,6 +525,7 @@ def load_folder(
                 str(spec.path),
                 _run_stats(record),
                 temperature=fmt.has_temperature,
+                continues=spec.continues,
             ),
             record,
             hexdigest,
