@@ -203,3 +203,20 @@ def test_logs_without_temperature_give_a_session_at_one_temperature(
     assert not session.has_temperature
     cal = accelcore.calibrate(session)
     assert any("no temperature logged" in n for n in cal.notes), cal.notes
+
+
+def test_a_preamble_above_the_header_is_skipped_as_the_reader_skips_it(
+    original: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A logger's settings lines above the header: found, and the session reads."""
+    folder = tmp_path / "s"
+    folder.mkdir()
+    for f in original.glob("*.csv"):
+        (folder / f.name).write_text("Fs,20\nLogging Type,1\n\n" + f.read_text())
+    code, out, err = _run(["init", str(folder)], capsys)
+    assert code == 0, err
+    assert "columns: time=time_s, temperature=temp_c, x=x, y=y, z=z" in out
+    assert "rate 20 Hz" in out
+    got = accelcore.calibrate(accelcore.load_session(folder, cache=False))
+    want = accelcore.calibrate(accelcore.load_session(original, cache=False))
+    pd.testing.assert_frame_equal(got.summary(), want.summary())

@@ -78,6 +78,29 @@ def test_non_numeric_cell_names_file_line_and_column(tmp_path: Path) -> None:
     assert isinstance(err, ValueError)
 
 
+def test_a_preamble_above_the_header_is_skipped(tmp_path: Path) -> None:
+    """A logger's settings lines above the header (an Arduino dump: Fs, range, ...)."""
+    body = HEADER + _rows(40)
+    plain = read_run(_log(tmp_path, body, "plain.csv"))
+    path = _log(tmp_path, "Fs,20\nLogging Type,1\n\nrange;2g\n" + body, "dump.csv")
+    data = read_run(path)
+    np.testing.assert_array_equal(data.blocks.channels, plain.blocks.channels)
+    assert data.n_rows == plain.n_rows and data.header == plain.header
+    # Read in pieces (bulk's split of a long log) the same: a block cut by a piece
+    # boundary is the count-weighted mean of two partial means, equal to a few ulps.
+    from accelcore.apps.bulk import read_run_split
+
+    split = read_run_split(path, pieces=3)
+    np.testing.assert_allclose(split.blocks.channels, plain.blocks.channels, rtol=1e-14, atol=0)
+    # Lines keep their numbers: the header is line 5, a bad cell of the 3rd row line 8.
+    rows = body.splitlines()
+    rows[3] = rows[3].replace("1.48", "1.4B")
+    bad = _log(tmp_path, "Fs,20\nLogging Type,1\n\nrange;2g\n" + "\n".join(rows) + "\n", "bad.csv")
+    with pytest.raises(accelcore.ParseError) as info:
+        read_run(bad)
+    assert (info.value.line, info.value.column) == (8, 4)
+
+
 def test_missing_column_lists_what_was_found(tmp_path: Path) -> None:
     path = _log(tmp_path, "time_s,temp_c,x,y,zz\n0,1,2,3,4\n")
     with pytest.raises(accelcore.ParseError, match=r"missing column\(s\) 'z'.*'zz'") as info:

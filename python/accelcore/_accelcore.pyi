@@ -11,6 +11,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __version__: str
+#: Lines the CSV reader reads looking for the header below a logger's preamble.
+MAX_PREAMBLE_LINES: int
 
 @final
 class DecimatedBlocks:

@@ -139,6 +139,9 @@ const BLOCK_BYTES: usize = 1 << 17;
 /// Header names shown in a "missing column" message.
 const MAX_NAMES_SHOWN: usize = 32;
 
+/// Most lines read looking for the header below a preamble ([`read_header`]).
+pub const MAX_PREAMBLE_LINES: u64 = 64;
+
 /// Read one line (with its `\n`, if any) into `line`; `Ok(0)` at the end of input.
 /// `line_no` is the number of the line being read, for the error message.
 fn read_line<R: BufRead>(
@@ -783,7 +786,11 @@ fn check_format(format: &CsvFormat) -> Result<()> {
     Ok(())
 }
 
-/// The header: the first non-blank line. Returns it, its line number and the bytes consumed.
+/// Read the header: the first line that names every required column, within the first
+/// [`MAX_PREAMBLE_LINES`] lines (a logger's preamble of settings lines above it,
+/// `Fs,100`, is skipped); blank lines are skipped. When no line names them all, the
+/// first non-blank line is the header, and [`map_columns`] says what it lacks.
+/// Returns the header's names, its line number and the bytes consumed through it.
 fn read_header<R: BufRead>(
     reader: &mut R,
     path: &str,
@@ -792,15 +799,13 @@ fn read_header<R: BufRead>(
     let mut line = Vec::with_capacity(256);
     let mut line_no: u64 = 0;
     let mut consumed: u64 = 0;
+    let mut first: Option<(Vec<String>, u64, u64)> = None;
     loop {
         let n = read_line(reader, &mut line, path, line_no + 1)?;
         if n == 0 {
-            return Err(parse_error(
-                path,
-                line_no.max(1),
-                1,
-                "empty file: no header".into(),
-            ));
+            return first.ok_or_else(|| {
+                parse_error(path, line_no.max(1), 1, "empty file: no header".into())
+            });
         }
         consumed += n as u64;
         line_no += 1;
@@ -811,15 +816,42 @@ fn read_header<R: BufRead>(
         if text.trim_ascii().is_empty() {
             continue;
         }
-        let text = std::str::from_utf8(text).map_err(|e| {
-            parse_error(path, line_no, 1, format!("header is not valid UTF-8: {e}"))
-        })?;
-        let header = text
-            .split(format.delimiter as char)
-            .map(|h| h.trim().to_string())
-            .collect();
-        return Ok((header, line_no, consumed));
+        let names = match std::str::from_utf8(text) {
+            Ok(text) => text
+                .split(format.delimiter as char)
+                .map(|h| h.trim().to_string())
+                .collect::<Vec<_>>(),
+            // A preamble line may be anything; a header must be UTF-8.
+            Err(e) if first.is_none() => {
+                return Err(parse_error(
+                    path,
+                    line_no,
+                    1,
+                    format!("header is not valid UTF-8: {e}"),
+                ))
+            }
+            Err(_) => Vec::new(),
+        };
+        if names_required(&names, format) {
+            return Ok((names, line_no, consumed));
+        }
+        if first.is_none() {
+            first = Some((names, line_no, consumed));
+        }
+        if line_no >= MAX_PREAMBLE_LINES {
+            // No header below a preamble: the first line is the header. It lacks
+            // required columns, which `map_columns` names; the data start after it.
+            return Ok(first.expect("set on the first non-blank line"));
+        }
     }
+}
+
+/// Whether a line's names hold every column the format requires.
+fn names_required(names: &[String], format: &CsvFormat) -> bool {
+    let has = |c: &str| names.iter().any(|h| h == c);
+    has(&format.time_column)
+        && has(&format.temperature_column)
+        && format.channel_columns.iter().all(|c| has(c))
 }
 
 /// Refuse a header that repeats a name: otherwise the first column of that name

@@ -403,7 +403,7 @@ proptest! {
 #[test]
 fn a_missing_column_asked_for_twice_is_named_once() {
     // A log without temperature reads its time column in the temperature's place: both
-    // "n". A preamble line in the header's place lacks it, and says so once.
+    // "n". No line names it: the first is the header, and lacks it, said once.
     let format = CsvFormat {
         time_column: "n".into(),
         temperature_column: "n".into(),
@@ -411,7 +411,7 @@ fn a_missing_column_asked_for_twice_is_named_once() {
         ..CsvFormat::default()
     };
     let got = read_run_from(
-        b"Fs,100\nn,ax,ay,az\n0,1,2,3\n".as_slice(),
+        b"Fs,100\nindex,ax,ay,az\n0,1,2,3\n".as_slice(),
         "dump.csv",
         &format,
         DecimatorConfig::default(),
@@ -426,4 +426,27 @@ fn a_missing_column_asked_for_twice_is_named_once() {
         }
         other => panic!("expected a parse error, got {other:?}"),
     }
+}
+
+#[test]
+fn a_preamble_above_the_header_is_skipped_and_lines_keep_their_numbers() {
+    // A logger's settings lines above the header (an Arduino dump's "Fs,100").
+    let text =
+        b"Fs,100\nrange,2g\n\ntime_s,temp_c,x,y,z\n0,20,1,2,3\n0.05,20,1,2,3\n0.1,20,1,x,3\n";
+    // The bad cell is on line 7 of the file, column 4.
+    match read(text) {
+        Err(Error::Parse { line, column, .. }) => assert_eq!((line, column), (7, 4)),
+        other => panic!("expected a parse error on line 7, got {other:?}"),
+    }
+    let good = b"Fs,100\ntime_s,temp_c,x,y,z\n0,20,1,2,3\n0.05,20,1,2,3\n";
+    let run = read(good).expect("the header below the preamble");
+    assert_eq!(run.n_rows, 2);
+    // No line names the columns: the first line is the header, and lacks them.
+    let mut none = b"a,b\n".repeat(70);
+    none.extend_from_slice(b"time_s,temp_c,x,y,z\n0,20,1,2,3\n");
+    parse_error_at(
+        read(&none),
+        1,
+        "missing column(s) 'time_s', 'temp_c', 'x', 'y', 'z'",
+    );
 }

@@ -51,6 +51,11 @@ mod _accelcore {
 
     #[pymodule_init]
     fn init(m: &Bound<'_, PyModule>) -> PyResult<()> {
-        m.add("__version__", env!("CARGO_PKG_VERSION"))
+        m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+        // Lines the reader reads looking for a header below a logger's preamble.
+        m.add(
+            "MAX_PREAMBLE_LINES",
+            accelcore_core::reader::MAX_PREAMBLE_LINES,
+        )
     }
 }

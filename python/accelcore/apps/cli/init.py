@@ -30,6 +30,7 @@ from typing import TextIO
 import numpy as np
 import pandas as pd
 
+from accelcore._accelcore import MAX_PREAMBLE_LINES
 from accelcore.apps.cli.guesses import (
     COLUMN_PATTERNS,
     ROLES,
@@ -111,13 +112,35 @@ def _check_target(target: Path, force: bool) -> None:
         raise UsageError(f"{target} exists; --force writes over it")
 
 
+def _header(log: Path, args: argparse.Namespace) -> tuple[int, str, list[str]]:
+    """Return the lines above a log's header, its delimiter and its names.
+
+    The header is the first non-blank line whose names give a time and x, y, z
+    column, within the reader's :data:`MAX_PREAMBLE_LINES` (a logger's settings lines
+    above it, as the reader skips them); else the first non-blank line.
+    """
+    first: tuple[int, str, list[str]] | None = None
+    with log.open(encoding="utf-8", errors="replace") as fh:
+        for i, line in enumerate(fh):
+            if i >= MAX_PREAMBLE_LINES:
+                break
+            if not line.strip():
+                continue
+            line = line.lstrip("\ufeff")
+            delimiter = DELIMITERS[args.delimiter] if args.delimiter else delimiter_of(line)
+            names = [h.strip() for h in line.rstrip("\r\n").split(delimiter)]
+            first = first or (i, delimiter, names)
+            if all(r in guess_columns(names) for r in ROLES if r != "temperature"):
+                return i, delimiter, names
+    if first is None:
+        raise CliDataError(f"{log}: no header line")
+    return first
+
+
 def _init_runs(folder: Path, logs: list[Path], args: argparse.Namespace, out: TextIO) -> int:
     """Write FOLDER/session.toml with one run per log."""
     target = folder / TOML_NAME
-    with logs[0].open(encoding="utf-8", errors="replace") as fh:
-        first_line = fh.readline()
-    delimiter = DELIMITERS[args.delimiter] if args.delimiter else delimiter_of(first_line)
-    header = [h.strip() for h in first_line.rstrip("\r\n").split(delimiter)]
+    skip, delimiter, header = _header(logs[0], args)
     columns = guess_columns(header)
     # Without a temperature column the session is one at one temperature (imucal's
     # six positions): `temperature = ""`, said in the summary.
@@ -132,7 +155,7 @@ def _init_runs(folder: Path, logs: list[Path], args: argparse.Namespace, out: Te
     used = [c for c in columns.values() if c]
     for log in logs:
         try:
-            frames[log.name] = pd.read_csv(log, sep=delimiter, usecols=used)
+            frames[log.name] = pd.read_csv(log, sep=delimiter, usecols=used, skiprows=skip)
         except (ValueError, pd.errors.ParserError) as exc:
             raise CliDataError(
                 f"{log}: not a log of the same layout as {logs[0].name}: {exc}"
