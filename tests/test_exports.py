@@ -293,6 +293,20 @@ def test_imucal_reads_our_json_and_calibrates_like_us(
     assert out.offset_change_mg > 0 and "lost over the calibrated range" in out.text()
 
 
+def test_imucal_takes_m_s2_in_its_own_spelling(tmp_path: Path) -> None:
+    """A calibration of a flight log (m/s²) is for imucal's ``acc_unit="m/s^2"``."""
+    cal = tilted_cal(units="m/s2")
+    path = tmp_path / "cal.json"
+    export_imucal(cal).write(path)
+    info = imucal_management.load_calibration_info(path)
+    assert info.from_acc_unit == "m/s^2"
+    acc, _ = info.calibrate(RAW, np.zeros_like(RAW), acc_unit="m/s^2", gyr_unit="deg/s")
+    ours = cal.compensate(RAW, np.full(len(RAW), cal.t_ref_c))
+    np.testing.assert_allclose(acc, ours * G0, rtol=1e-12, atol=1e-12)
+    back = read_imucal(path)
+    assert back.units == "m/s2"  # read back in ours
+
+
 def test_imucal_round_trip(tmp_path: Path) -> None:
     cal = tilted_cal()
     path = tmp_path / "cal.json"

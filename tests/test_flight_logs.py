@@ -268,3 +268,23 @@ def test_the_command_line_takes_a_flight_log_in_place_of_a_session(
     assert z["offset_tc_mg_per_c"] == pytest.approx(2.0 / 9.80665, rel=1e-3)
     assert main(["calibrate", str(log), "--json", str(log)], stdout=io.StringIO()) == 2
     assert log.read_bytes() == before
+
+
+@pytest.mark.parametrize("kind", ["ulog", "dataflash"])
+def test_a_garbage_temperature_is_refused_at_its_message(kind: str, tmp_path: Path) -> None:
+    """DataFlash has no checksum: garbage decodes as a message, here T = -6.08e26 °C."""
+    sweep = _sweep(0)
+    sweep["temperature"][1234] = np.float32(-6.08e26)
+    if kind == "ulog":
+        path = tmp_path / "bad.ulg"
+        _write_ulog(path, {"sensor_accel": {0: sweep}})
+        read, stream = read_ulog, r"sensor_accel\[0\]"
+    else:
+        path = tmp_path / "bad.bin"
+        _write_dataflash(path, {0: sweep})
+        read, stream = read_dataflash, r"IMU\[0\]"
+    with pytest.raises(
+        ParseError,
+        match=rf"bad\.(ulg|bin):{stream} message 1235: temperature -6\.08\d*e\+26 is not",
+    ):
+        read(path)

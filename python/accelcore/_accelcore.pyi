@@ -13,6 +13,9 @@ from numpy.typing import ArrayLike, NDArray
 __version__: str
 #: Lines the CSV reader reads looking for the header below a logger's preamble.
 MAX_PREAMBLE_LINES: int
+#: The temperatures a log may hold, °C: beyond them a value is corrupt (or in another unit).
+MIN_TEMPERATURE_C: float
+MAX_TEMPERATURE_C: float
 
 @final
 class DecimatedBlocks:

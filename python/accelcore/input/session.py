@@ -42,7 +42,13 @@ from accelcore.errors import (
 from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
 from accelcore.input.consistency import check_labels, check_rate
 from accelcore.input.defaults import check_gravity, default_decimation_factor, fill_unlogged
-from accelcore.input.format import SessionFormat, check_units, gravity_of
+from accelcore.input.format import (
+    SessionFormat,
+    check_units,
+    gravity_of,
+    impossible_temperature,
+    not_a_temperature,
+)
 from accelcore.input.frames import check_complete_rows, frame_columns, run_table
 from accelcore.input.run import Run, RunStats
 from accelcore.pools import shared_pool
@@ -250,6 +256,11 @@ class Session:
             check_complete_rows(table, names, extra_names, label)
             channels = np.column_stack(table[2:])
             time_s, temp_c = table[0], table[1]
+            if has_temperature and (k := impossible_temperature(temp_c)) is not None:
+                column = names.get("temperature") or DEFAULT_COLUMNS["temperature"]
+                raise ParameterError(
+                    f"{label}: column {column!r}, row {k}: {not_a_temperature(float(temp_c[k]))}"
+                )
             dec = core.Decimator(
                 factor=decimation_factor, rate_hz=rate_hz, n_channels=channels.shape[1]
             )

@@ -113,7 +113,10 @@ def read_imucal(path: str | Path, *, t_ref_c: float = 25.0) -> Calibration:
     unbounded = (-math.inf, math.inf)
     return Calibration(
         method="imucal",
-        units=str(from_unit) if from_unit is not None else "a.u.",
+        # imucal spells m/s² "m/s^2"; ours is "m/s2".
+        units={"m/s^2": "m/s2"}.get(str(from_unit), str(from_unit))
+        if from_unit is not None
+        else "a.u.",
         t_ref_c=float(t_ref_c),
         window_c=unbounded,
         temperature_range_c=unbounded,

@@ -139,6 +139,22 @@ const BLOCK_BYTES: usize = 1 << 17;
 /// Header names shown in a "missing column" message.
 const MAX_NAMES_SHOWN: usize = 32;
 
+/// A value as a message shows it: plain, or in exponent form when huge (`1e30`).
+fn shown_value(v: f64) -> String {
+    if v.abs() >= 1e6 {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// Lowest temperature a log may hold, °C (absolute zero): below it a cell is corrupt.
+pub const MIN_TEMPERATURE_C: f64 = -273.15;
+
+/// Highest temperature a log may hold, °C: far above any chamber's or part's rating
+/// (a logger's garbage, or a temperature in another unit, reads beyond it).
+pub const MAX_TEMPERATURE_C: f64 = 1000.0;
+
 /// Most lines read looking for the header below a preamble ([`read_header`]).
 pub const MAX_PREAMBLE_LINES: u64 = 64;
 
@@ -449,6 +465,9 @@ fn strip_line_end(line: &[u8]) -> &[u8] {
 struct ColumnMap {
     time: usize,
     temperature: usize,
+    /// The temperature column's name; None when the log has none (the time column
+    /// stands in its place).
+    temperature_name: Option<String>,
     /// Field index of every decimated channel, required first.
     channels: Vec<usize>,
     names: Vec<String>,
@@ -526,6 +545,7 @@ fn map_columns(
     Ok(ColumnMap {
         time,
         temperature,
+        temperature_name: (temperature != time).then(|| header[temperature].clone()),
         channels,
         names,
     })
@@ -584,6 +604,24 @@ impl Batch {
                 self.temperature_c.push(row[columns.temperature]);
                 self.channels
                     .extend(columns.channels.iter().map(|&i| row[i]));
+            }
+        }
+        if let Some(name) = &columns.temperature_name {
+            // A value no thermometer reads is a corrupt cell, not a temperature: one
+            // would poison its block's mean (and every bin and fit after it).
+            if let Some(k) = self.temperature_c.iter().position(|&t| {
+                t.is_finite() && !(MIN_TEMPERATURE_C..=MAX_TEMPERATURE_C).contains(&t)
+            }) {
+                return Err(parse_error(
+                    path,
+                    self.lines.get(k).copied().unwrap_or(0),
+                    columns.temperature as u64 + 1,
+                    format!(
+                        "column '{name}': {} is not a temperature in °C (below absolute zero \
+                         or above {MAX_TEMPERATURE_C} °C): a corrupt cell, or another unit",
+                        shown_value(self.temperature_c[k])
+                    ),
+                ));
             }
         }
         let n = self.time_s.len();

@@ -138,11 +138,11 @@ fn nul_bytes_bom_only_and_invalid_utf8() {
 
 #[test]
 fn extreme_numbers_do_not_overflow() {
-    // Times 1e308 apart overflow (t - t0) to inf; block indices saturate.
-    let run = read(
-        b"time_s,temp_c,x,y,z\n-1e308,20,1,2,3\n1e308,20,1,2,3\n1.7e308,1e308,-1e308,1e-320,0\n",
-    )
-    .unwrap();
+    // Times 1e308 apart overflow (t - t0) to inf; block indices saturate. (A temperature
+    // of 1e308 is no temperature: `a_temperature_no_thermometer_reads_is_an_error_at_its_cell`.)
+    let run =
+        read(b"time_s,temp_c,x,y,z\n-1e308,20,1,2,3\n1e308,20,1,2,3\n1.7e308,20,-1e308,1e-320,0\n")
+            .unwrap();
     assert_eq!(run.n_rows, 3);
     assert!(run.blocks.block_index.windows(2).all(|w| w[0] < w[1]));
     // Numbers beyond f64 parse as inf and are skipped and counted.
@@ -449,4 +449,32 @@ fn a_preamble_above_the_header_is_skipped_and_lines_keep_their_numbers() {
         1,
         "missing column(s) 'time_s', 'temp_c', 'x', 'y', 'z'",
     );
+}
+
+#[test]
+fn a_temperature_no_thermometer_reads_is_an_error_at_its_cell() {
+    // A corrupt cell (a logger's garbage) or a temperature in kelvin x 1000.
+    for (bad, shown) in [("1e30", "1e30"), ("-300", "-300"), ("2931.5", "2931.5")] {
+        let text = format!("time_s,temp_c,x,y,z\n0,20,1,2,3\n0.05,{bad},1,2,3\n0.1,20,1,2,3\n");
+        match read(text.as_bytes()) {
+            Err(Error::Parse {
+                line,
+                column,
+                reason,
+                ..
+            }) => {
+                assert_eq!((line, column), (3, 2), "{reason}");
+                assert!(
+                    reason.starts_with(&format!(
+                        "column 'temp_c': {shown} is not a temperature in °C"
+                    )),
+                    "{reason}"
+                );
+            }
+            other => panic!("expected a parse error, got {other:?}"),
+        }
+    }
+    // Cold and hot chambers' range reads as it is.
+    let ok = b"time_s,temp_c,x,y,z\n0,-70,1,2,3\n0.05,180,1,2,3\n";
+    assert_eq!(read(ok).expect("in range").n_rows, 2);
 }

@@ -56,6 +56,15 @@ mod _accelcore {
         m.add(
             "MAX_PREAMBLE_LINES",
             accelcore_core::reader::MAX_PREAMBLE_LINES,
+        )?;
+        // The temperatures a log may hold, °C: beyond them a value is corrupt.
+        m.add(
+            "MIN_TEMPERATURE_C",
+            accelcore_core::reader::MIN_TEMPERATURE_C,
+        )?;
+        m.add(
+            "MAX_TEMPERATURE_C",
+            accelcore_core::reader::MAX_TEMPERATURE_C,
         )
     }
 }

@@ -119,6 +119,7 @@ def flight_session(
     layout = _Layout(
         path=file,
         time_column=1,
+        temperature_column=5,  # time, x, y, z, temperature: as the messages' rows
         extra_names=[],
         n_channels=3,
         row_word=f"{stream} message",

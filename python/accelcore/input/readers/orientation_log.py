@@ -183,6 +183,7 @@ def read_orientation_log(
             row_word="line",
             fragment="L",
             temperature=bool(names["temperature"]),
+            temperature_column=index.get(names["temperature"], 0),
         )
         logged = [names["temperature"]] if layout.temperature else []
 

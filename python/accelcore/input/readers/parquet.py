@@ -165,6 +165,7 @@ def read_parquet(
         row_word="row",
         fragment="rows=",
         temperature=bool(logged),
+        temperature_column=index.get(names["temperature"], 0),
     )
 
     def as_float(array: Any) -> _FloatArray:

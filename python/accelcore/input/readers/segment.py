@@ -27,7 +27,7 @@ from accelcore.errors import (
     SessionFormatError,
     TimeOrderError,
 )
-from accelcore.input.format import gravity_of
+from accelcore.input.format import gravity_of, impossible_temperature, not_a_temperature
 from accelcore.input.readers.common import _LABELS, _FloatArray, _parse_error
 from accelcore.input.session import Run, RunStats, _make_run
 
@@ -56,9 +56,11 @@ class _RunBuilder:
         settle_s: float,
         row_word: str,
         temperature: bool = True,
+        temperature_column: int = 0,
     ) -> None:
         self.label = label
         self.temperature = temperature
+        self.temperature_column = temperature_column
         self.source = source
         self.path = path
         self.time_column = time_column
@@ -105,6 +107,17 @@ class _RunBuilder:
             self.n_settling += i
             time_s, temperature_c = time_s[i:], temperature_c[i:]
             channels, positions = channels[i:], positions[i:]
+        if self.temperature:
+            k = impossible_temperature(temperature_c)
+            if k is not None:
+                pos = int(positions[k])
+                raise _parse_error(
+                    self.path,
+                    pos,
+                    self.temperature_column,
+                    not_a_temperature(float(temperature_c[k])),
+                    where=self._where(pos, self.temperature_column),
+                ) from None
         try:
             self.decimator.push(time_s, temperature_c, channels)
         except TimeOrderError as exc:
@@ -118,8 +131,9 @@ class _RunBuilder:
             ) from None
         self.tally.push(time_s, temperature_c, channels)
 
-    def _where(self, pos: int) -> str:
-        return f"{self.row_word} {pos}" if self.row_word != "line" else f"{pos}:{self.time_column}"
+    def _where(self, pos: int, column: int | None = None) -> str:
+        column = self.time_column if column is None else column
+        return f"{self.row_word} {pos}" if self.row_word != "line" else f"{pos}:{column}"
 
     def span(self) -> str:
         """Describe the run's rows, e.g. ``lines 2-7201``."""
@@ -180,6 +194,7 @@ class _Layout:
     row_word: str
     fragment: str  # how a run's span is written into Run.source ("L" or "rows=")
     temperature: bool = True  # False: no temperature logged (time pushed in its place)
+    temperature_column: int = 0  # 1-based column of the temperature (0: not a column)
 
 
 def _label_ids(
@@ -261,6 +276,7 @@ def _segment(
             settle_s=settle_s,
             row_word=layout.row_word,
             temperature=layout.temperature,
+            temperature_column=layout.temperature_column,
         )
 
     def close(builder: _RunBuilder | None) -> None:

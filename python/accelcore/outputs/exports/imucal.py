@@ -29,6 +29,10 @@ from accelcore.files import atomic_write
 from accelcore.outputs.exports._model import describe, local_gravity, model_at
 from accelcore.result.calibration import Calibration
 
+#: Our units spelled as imucal spells them: its ``calibrate`` compares ``acc_unit`` with
+#: the file's ``from_acc_unit`` as strings, and writes m/s² as ``"m/s^2"``.
+IMUCAL_UNITS = {"m/s2": "m/s^2"}
+
 __all__ = ["IMUCAL_FORMAT_VERSION", "ImucalExport", "export_imucal"]
 
 #: The ``_format_version`` imucal 2.x writes and accepts.
@@ -147,7 +151,7 @@ def export_imucal(cal: Calibration, *, temperature_c: float | None = None) -> Im
         K_a=np.diag(k),
         R_a=scaled / k[:, None],
         b_a=offset.copy(),
-        from_acc_unit=cal.units,
+        from_acc_unit=IMUCAL_UNITS.get(cal.units, cal.units),
         comment=comment,
         offset_change_mg=offset_change,
         sensitivity_change_pct=sens_change,
