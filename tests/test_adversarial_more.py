@@ -572,6 +572,9 @@ def _corrupt_files(folder: Path, edits: list[tuple[str, Any]]) -> None:
             run, name = arg
 
             def repeat(lines: list[str], name: str = name) -> list[str]:
+                # A log truncated to nothing by an earlier edit has no header to extend.
+                if not lines:
+                    return lines
                 return [lines[0] + f",{name}"] + [ln + ",0.5" for ln in lines[1:]]
 
             _rewrite(folder / run, repeat)

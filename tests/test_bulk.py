@@ -16,6 +16,7 @@ import pytest
 from accelcore import simulate
 from accelcore.apps.bulk import FAILURE_COLUMNS, FLEET_COLUMNS, bulk, find_sessions
 from accelcore.apps.cli import main
+from accelcore.errors import OutputConflictError
 
 SENSORS = ("ADXL335", "MPU-9255", "ADXL327", "LIS344ALH")
 N_GOOD = 47
@@ -175,3 +176,29 @@ def test_dask_local_cluster_gives_the_local_fleet_table(tmp_path: Path) -> None:
     assert result.ok
     for name in TABLES:
         assert (tmp_path / "dask" / name).read_bytes() == (local / name).read_bytes(), name
+
+
+def test_outputs_that_would_write_over_a_session_are_refused(tmp_path: Path) -> None:
+    """bulk arch -o arch/p with sessions a/ and p/a/: a's results would land in p/a."""
+    arch = tmp_path / "arch"
+    for rel in ("a", "p/a"):
+        simulate.session(arch / rel, "ADXL335", seed=1, duration_h=0.05, soak_min=0.5)
+    # p/a's run file named as bulk names its outputs.
+    inner = arch / "p" / "a"
+    (inner / "x_pos.csv").rename(inner / "calibration.json")
+    toml = inner / "session.toml"
+    toml.write_text(toml.read_text().replace('"x_pos.csv"', '"calibration.json"'))
+    before = {p: p.read_bytes() for p in arch.rglob("*") if p.is_file()}
+    with pytest.raises(OutputConflictError) as info:
+        bulk(arch, arch / "p", jobs=1, progress=False)
+    assert info.value.input == str(inner / "calibration.json")
+    assert before == {p: p.read_bytes() for p in arch.rglob("*") if p.is_file()}
+    # A run file outside its session, named as a fleet table of the output.
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "fleet.csv").write_text((arch / "a" / "x_neg.csv").read_text())
+    toml = arch / "a" / "session.toml"
+    toml.write_text(toml.read_text().replace('"x_neg.csv"', '"../../out/fleet.csv"'))
+    code = main(["bulk", str(arch), "-o", str(out), "--quiet"])
+    assert code == 2
+    assert (out / "fleet.csv").read_text() == (arch / "a" / "x_neg.csv").read_text()

@@ -404,6 +404,51 @@ def test_compensate_errors(sim: simulate.SimulatedSession, cal_file: Path, tmp_p
     assert run_main("compensate", cal_file, bad, "-o", out_csv, "--delimiter", "|")[0] == 2
 
 
+def test_compensate_refuses_what_would_give_a_wrong_number(
+    sim: simulate.SimulatedSession, cal_file: Path, tmp_path: Path
+) -> None:
+    """Each was a wrong number with exit 0 (the adversarial round of session 20)."""
+    out_csv = tmp_path / "o.csv"
+    rows = (sim.path / "x_pos.csv").read_text().splitlines()
+    # A repeated column name: pandas renamed it "x.1", and the first x was read in silence.
+    dup = tmp_path / "dup.csv"
+    dup.write_text(
+        "\n".join(
+            [rows[0].replace("x,", "x,x,", 1)]
+            + [r.replace(",", ",0,", 2).replace(",0,", ",", 1) for r in rows[1:50]]
+        )
+        + "\n"
+    )
+    status, _, err = run_main("compensate", cal_file, dup, "-o", out_csv)
+    assert status == 1 and "column name 'x' appears twice" in err, err
+    # --session in other units than the calibration.
+    other = tmp_path / "other"
+    other.mkdir()
+    toml = (sim.path / "session.toml").read_text().replace('units = "V"', 'units = "g"')
+    (other / "session.toml").write_text(toml)
+    status, _, err = run_main(
+        "compensate", cal_file, sim.path / "x_pos.csv", "-o", out_csv, "--session", other
+    )
+    assert status == 1 and "in g but the calibration" in err and "is in V" in err, err
+    # Spaces after the commas: read as the session reader reads them.
+    spaced = tmp_path / "spaced.csv"
+    spaced.write_text("\n".join(r.replace(",", ", ") for r in rows[:200]) + "\n")
+    status, _, err = run_main("compensate", cal_file, spaced, "-o", out_csv)
+    assert status == 0, err
+    plain = tmp_path / "plain.csv"
+    plain.write_text("\n".join(rows[:200]) + "\n")
+    assert run_main("compensate", cal_file, plain, "-o", tmp_path / "p.csv")[0] == 0
+    pd.testing.assert_frame_equal(pd.read_csv(out_csv), pd.read_csv(tmp_path / "p.csv"))
+    assert not any(p.name.startswith("o.csv.") for p in tmp_path.iterdir())
+    # A Parquet time column of timestamps: was a traceback (cannot cast to float64).
+    frame = pd.read_csv(plain)
+    frame["time_s"] = pd.to_datetime(frame["time_s"], unit="s")
+    stamped = tmp_path / "stamped.parquet"
+    frame.to_parquet(stamped)
+    status, _, err = run_main("compensate", cal_file, stamped, "-o", tmp_path / "s.csv")
+    assert status == 1 and "column 'time_s' is timestamp" in err and "not numeric" in err, err
+
+
 # ---------------------------------------------------------------------- simulate
 def test_simulate_writes_a_session(tmp_path: Path) -> None:
     folder = tmp_path / "s"

@@ -111,6 +111,9 @@ def test_run_files_are_checked_unless_asked_not_to(tmp_path: Path) -> None:
         ('x = "ax"', "x = 3", r"\[columns\] values must be strings"),
         ('x = "ax"', 'w = "ax"', r"unknown key\(s\) in \[columns\]: w"),
         ('orientation = "OX-"', 'orientation = "up"', r"\[\[run\]\] #2: unknown orientation"),
+        # A NUL in a file name was a traceback (ValueError: embedded null byte).
+        ('file = "b.tsv"', 'file = "b.tsv\\u0000.txt"', r"\[\[run\]\] #2: file .* holds a NUL"),
+        ("rate_hz = 50", "rate_hz = true", "rate_hz must be a positive number"),
     ],
 )
 def test_invalid_keys_are_named(tmp_path: Path, old: str, new: str, message: str) -> None:

@@ -56,7 +56,7 @@ from accelcore.apps.progress import Progress
 from accelcore.diagnosis import diagnose as run_diagnosis
 from accelcore.diagnosis import search as diagnosis_search
 from accelcore.errors import AccelcoreError
-from accelcore.files import atomic_write
+from accelcore.files import atomic_write, check_outputs
 from accelcore.fitting.calibrate import calibrate
 from accelcore.input import session as session_reader
 from accelcore.input.cache import CacheSetting
@@ -100,6 +100,38 @@ def find_sessions(archive: str | Path) -> list[str]:
         and not any(d in folders for d in p.parents)
     }
     return sorted(p.relative_to(root).as_posix() for p in folders | logs)
+
+
+#: What bulk writes for each session, in ``OUT/<relative path>/``.
+CALIBRATION_FILE, DIAGNOSIS_FILE = "calibration.json", "diagnosis.json"
+SESSION_OUTPUTS = (CALIBRATION_FILE, DIAGNOSIS_FILE)
+
+#: What bulk writes in ``OUT``.
+FLEET_CSV, FAILURES_CSV, FLEET_PARQUET = "fleet.csv", "failures.csv", "fleet.parquet"
+TABLE_OUTPUTS = (FLEET_CSV, FAILURES_CSV, FLEET_PARQUET)
+
+
+def guard_outputs(archive: Path, sessions: Sequence[str], out: Path) -> None:
+    """Refuse a bulk whose outputs would write over any file a session reads.
+
+    Every output (each session's ``calibration.json`` and ``diagnosis.json``, the
+    fleet tables) is checked against every session's inputs (``session.toml`` and the
+    files it names, wherever they lie; a flight log) before anything is read or
+    written, by :func:`accelcore.files.check_outputs`: an output folder inside the
+    archive that holds sessions of its own (``bulk arch -o arch/p`` with ``arch/a`` and
+    ``arch/p/a``) would put ``a``'s results over ``p/a``'s files.
+
+    Raises
+    ------
+    accelcore.errors.OutputConflictError
+        An output is, or links to, an input.
+    """
+    inputs: list[Path] = []
+    for rel in sessions:
+        path = archive / rel
+        inputs += [path] if is_flight_log(path) else list(SessionFormat.input_files(path))
+    outputs = [out / rel / name for rel in sessions for name in SESSION_OUTPUTS]
+    check_outputs(inputs, [*outputs, *(out / name for name in TABLE_OUTPUTS)])
 
 
 def _input_mtime(session_dir: Path) -> float:
@@ -182,15 +214,13 @@ def process_session(
         stage = "calibrate"
         cal = calibrate(session)
         dst.mkdir(parents=True, exist_ok=True)
-        cal.save(dst / "calibration.json")
+        cal.save(dst / CALIBRATION_FILE)
         quality = check_session(session, warn=False)
         diag = None
         if diagnose:
             stage = "diagnose"
             diag = run_diagnosis(session, cal, quality=quality)
-            atomic_write(
-                dst / "diagnosis.json", json.dumps(diag.to_dict(), indent=1, sort_keys=True)
-            )
+            atomic_write(dst / DIAGNOSIS_FILE, json.dumps(diag.to_dict(), indent=1, sort_keys=True))
         stage = "report"
         rows = fleet_rows(rel, cal, diag, quality)
         doc = {"schema": BULK_SCHEMA, "accelcore_version": __version__, "rows": rows}
@@ -270,20 +300,20 @@ NO_PARQUET = "fleet.parquet needs pyarrow: pip install accelcore[parquet]"
 
 def _write_tables(out: Path, fleet: pd.DataFrame, failures: pd.DataFrame) -> tuple[str, ...]:
     """Write the fleet tables; return what was left out for want of an optional dependency."""
-    atomic_write(out / "fleet.csv", _table_bytes(fleet, FLEET_COLUMNS))
-    atomic_write(out / "failures.csv", _table_bytes(failures, FAILURE_COLUMNS))
+    atomic_write(out / FLEET_CSV, _table_bytes(fleet, FLEET_COLUMNS))
+    atomic_write(out / FAILURES_CSV, _table_bytes(failures, FAILURE_COLUMNS))
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError:  # optional: the [parquet] extra; the CSV tables are complete
-        stale = out / "fleet.parquet"
+        stale = out / FLEET_PARQUET
         if stale.is_file():  # from an earlier run: it would disagree with fleet.csv
             stale.unlink()
         return (NO_PARQUET,)
     table = pa.Table.from_pandas(fleet, preserve_index=False)
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)
-    atomic_write(out / "fleet.parquet", sink.getvalue().to_pybytes())
+    atomic_write(out / FLEET_PARQUET, sink.getvalue().to_pybytes())
     return ()
 
 
@@ -468,6 +498,7 @@ def bulk(
     start = time.monotonic()
     archive_p, out_p = Path(archive), Path(out)
     sessions = find_sessions(archive_p)
+    guard_outputs(archive_p, sessions, out_p)
     out_p.mkdir(parents=True, exist_ok=True)
     bar = Progress(
         len(sessions), stream=stream, enabled=progress, log_lines=True, rate=True, delay_s=0.0

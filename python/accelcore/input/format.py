@@ -374,7 +374,12 @@ class SessionFormat:
                 raise SessionFormatError(f"{where}: missing required key '{key}'")
         units = check_units(meta["units"], where)
         rate_hz = meta["rate_hz"]
-        if not isinstance(rate_hz, (int, float)) or not math.isfinite(rate_hz) or rate_hz <= 0:
+        if (
+            isinstance(rate_hz, bool)  # TOML's true is no rate (Python's bool is an int)
+            or not isinstance(rate_hz, (int, float))
+            or not math.isfinite(rate_hz)
+            or rate_hz <= 0
+        ):
             raise SessionFormatError(f"{where}: rate_hz must be a positive number, got {rate_hz!r}")
         delimiter = meta.get("delimiter", ",")
         if not isinstance(delimiter, str) or delimiter not in DELIMITERS:
@@ -533,6 +538,11 @@ def _runs(tables: object, folder: Path, where: str, *, check_files: bool) -> tup
             gravity_of(str(table["orientation"]))
         except SessionFormatError as exc:
             raise SessionFormatError(f"{where}: [[run]] #{i}: {exc}") from None
+        if "\0" in str(table["file"]):
+            raise SessionFormatError(
+                f"{where}: [[run]] #{i}: file {table['file']!r} holds a NUL character; "
+                "no file can be named so"
+            )
         file = folder / str(table["file"])
         if check_files:
             _check_run_file(file, f"{where}, [[run]] #{i}")

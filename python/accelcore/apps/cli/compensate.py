@@ -34,6 +34,7 @@ from accelcore.constants import TIME_UNITS as _TIME_UNITS
 from accelcore.errors import AccelcoreError, ParseError, TemperatureRangeWarning
 from accelcore.files import atomic_open, check_input_file
 from accelcore.input.format import SessionFormat
+from accelcore.input.headers import check_unique_names, first_line_fields
 from accelcore.input.readers.common import GuardedLog
 from accelcore.input.readers.opener import is_flight_log
 from accelcore.result.calibration import Calibration
@@ -144,7 +145,7 @@ def _text_chunks(
 ) -> Generator[pd.DataFrame]:
     try:
         with GuardedLog(str(source)) as head:  # a line over 1 MiB is refused, not buffered
-            header = pd.read_csv(head, sep=_DELIMITERS[delimiter], nrows=0)
+            header = pd.read_csv(head, sep=_DELIMITERS[delimiter], nrows=0, skipinitialspace=True)
     except pd.errors.EmptyDataError as exc:
         raise CliDataError(f"{source}: empty file, no header row") from exc
     except UnicodeDecodeError as exc:
@@ -152,11 +153,16 @@ def _text_chunks(
             f"{source}: not a text log ({exc.reason}); compensate reads delimited text, "
             "Parquet (.parquet) and flight logs (.ulg, .bin)"
         ) from None
+    # pandas renames a repeated name ("x", "x.1"): the line as written says it.
+    check_unique_names(
+        str(source), first_line_fields(source, _DELIMITERS[delimiter]), header_line=True
+    )
     _check_columns(source, needed, [str(c) for c in header.columns])
     body = GuardedLog(str(source))
     reader = pd.read_csv(
         body,
         sep=_DELIMITERS[delimiter],
+        skipinitialspace=True,  # "time_s, temp_c": the names the session reader reads
         usecols=list(needed),
         dtype=dict.fromkeys(needed, np.float64),
         chunksize=chunk_rows,
@@ -173,11 +179,21 @@ def _parquet_chunks(
     source: Path, needed: Sequence[str], chunk_rows: int
 ) -> Generator[pd.DataFrame]:
     pq = need("pyarrow.parquet", "parquet", f"compensating {source} (Parquet)")
+    pa_types = need("pyarrow.types", "parquet", f"compensating {source} (Parquet)")
     try:
         pfile = pq.ParquetFile(source)
     except Exception as exc:  # pyarrow raises ArrowInvalid (a ValueError), OSError...
         raise CliDataError(f"{source}: not a readable Parquet file: {exc}") from None
-    _check_columns(source, needed, list(pfile.schema_arrow.names))
+    schema = pfile.schema_arrow
+    check_unique_names(str(source), list(schema.names), header_line=False)
+    _check_columns(source, needed, list(schema.names))
+    for name in needed:
+        kind = schema.field(name).type
+        if not (pa_types.is_integer(kind) or pa_types.is_floating(kind)):
+            raise CliDataError(
+                f"{source}: column {name!r} is {kind}, not numeric; compensate reads numbers "
+                "(a time column of timestamps: write it as seconds)"
+            )
     batches = pfile.iter_batches(batch_size=chunk_rows, columns=list(needed))
     return (b.to_pandas().astype(np.float64) for b in batches)
 
@@ -266,6 +282,14 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
     names, delimiter, time_scale = (_FLIGHT_COLUMNS, ",", 1.0) if flight else _layout(args)
     check_input_file(source, "log")  # a FIFO would block, a device never end
     cal = Calibration.load(args.calibration)
+    if args.session and (units := SessionFormat.read(args.session, check_files=False).units) != (
+        cal.units
+    ):
+        raise CliDataError(
+            f"{source}: --session {args.session} says its logs are in {units} but the "
+            f"calibration {args.calibration} is in {cal.units}: compensate a log with a "
+            "calibration of its own units"
+        )
     extra_names = sorted(
         {t.basis.column for m in cal.axes.values() for t in m.terms if t.basis.column is not None}
     )
