@@ -288,3 +288,29 @@ def test_a_garbage_temperature_is_refused_at_its_message(kind: str, tmp_path: Pa
         match=rf"bad\.(ulg|bin):{stream} message 1235: temperature -6\.08\d*e\+26 is not",
     ):
         read(path)
+
+
+@pytest.mark.parametrize("kind", ["ulog", "dataflash"])
+def test_factor_one_keeps_every_sample_as_logged(kind: str, tmp_path: Path) -> None:
+    """Samples on an exact grid, or jittered: factor 1 (what compensate reads) keeps each.
+
+    The grid of factor 1 put two samples in one block and left the next empty: 9,215
+    of 67,500 rows of a thermal log came out as averages, at times the log does not
+    hold (the interop round of session 20).
+    """
+    sweep = _sweep(0)
+    rng = np.random.default_rng(4)
+    k = np.arange(N)
+    jitter = np.where(k % 2 == 0, 0, rng.integers(-6_000, 6_000, N))  # µs, ±30 % of 20 ms
+    sweep["timestamp"] = (5_000_000 + k * 20_000 + jitter).astype(np.uint64)
+    path = tmp_path / ("s.ulg" if kind == "ulog" else "s.bin")
+    if kind == "ulog":
+        _write_ulog(path, {"sensor_accel": {0: sweep}})
+        read = read_ulog
+    else:
+        _write_dataflash(path, {0: sweep})
+        read = read_dataflash
+    run = read(path, decimation_factor=1).runs[0]
+    assert len(run) == N and np.all(run.count == 1)
+    np.testing.assert_array_equal(run.time_s, sweep["timestamp"].astype(np.float64) * 1e-6)
+    np.testing.assert_array_equal(run.output[:, 2], sweep["z"].astype(np.float64))

@@ -4,7 +4,8 @@ A flight log holds the accelerometer of each IMU as logged by the autopilot (m/s
 its own temperature, microsecond timestamps). :func:`read_ulog` and
 :func:`read_dataflash` turn the samples of one instance into chunks of
 :class:`FlightRows`; :func:`flight_session` decimates them into a :class:`Session`
-through the same segmenter as every other reader.
+through the same segmenter as every other reader (with a factor of 1, every sample as
+logged).
 
 May import: the foundation, :mod:`accelcore.input.format`, :mod:`accelcore.input.session`
 and the rest of :mod:`accelcore.input.readers`.
@@ -20,10 +21,12 @@ from types import ModuleType
 
 import numpy as np
 
+from accelcore._accelcore import RunTally
 from accelcore.errors import AccelcoreError, ParameterError, SessionFormatError
-from accelcore.input.format import gravity_of
-from accelcore.input.readers.common import _check_rate, _check_settle, _FloatArray
+from accelcore.input.format import gravity_of, impossible_temperature, not_a_temperature
+from accelcore.input.readers.common import _check_rate, _check_settle, _FloatArray, _parse_error
 from accelcore.input.readers.segment import _Chunk, _Layout, _segment
+from accelcore.input.run import Run, RunStats
 from accelcore.input.session import Session, default_decimation_factor
 
 __all__ = ["FlightRows", "flight_session", "require"]
@@ -139,6 +142,21 @@ def flight_session(
             )
             first_pos += n
 
+    if factor == 1:
+        # No decimation: every sample as logged. The block grid of factor 1 (one
+        # interval wide, from the first sample) would put two jittered or exactly
+        # gridded samples in one block and leave the next empty: compensate, which
+        # asks for every sample, wrote averages at times the log does not hold.
+        runs = [_every_sample(list(chunks()), layout, label, rate, settle)]
+        return Session(
+            runs=tuple(runs),
+            units="m/s2",
+            rate_hz=rate,
+            sensor=sensor,
+            serial=serial,
+            path=None,
+            decimation_factor=1,
+        )
     runs = _segment(
         chunks(),
         layout,
@@ -156,4 +174,55 @@ def flight_session(
         serial=serial,
         path=None,
         decimation_factor=factor,
+    )
+
+
+def _every_sample(
+    chunks: list[_Chunk], layout: _Layout, label: str, rate: float, settle_s: float
+) -> Run:
+    """One run of every sample as logged (one per block, count 1), checked as _segment checks."""
+    pos = np.concatenate([c.positions for c in chunks])
+    t = np.concatenate([c.time_s for c in chunks])
+    temp = np.concatenate([c.temperature_c for c in chunks])
+    acc = np.concatenate([c.channels for c in chunks])
+    if t.size == 0:
+        raise SessionFormatError(f"{layout.path}: {layout.row_word}s: no sample")
+    where = f"{layout.path}:{layout.row_word}"
+    if (k := impossible_temperature(temp)) is not None:
+        raise _parse_error(
+            layout.path,
+            int(pos[k]),
+            layout.temperature_column,
+            not_a_temperature(float(temp[k])),
+            where=f"{layout.row_word} {int(pos[k])}",
+        )
+    keep = np.isfinite(t) & np.isfinite(temp) & np.isfinite(acc).all(axis=1)
+    if settle_s > 0 and keep.any():
+        keep &= t >= t[keep][0] + settle_s
+    back = np.flatnonzero(np.diff(t[keep]) <= 0)
+    if back.size:
+        i = int(pos[keep][back[0] + 1])
+        before, after = t[keep][back[0]], t[keep][back[0] + 1]
+        raise _parse_error(
+            layout.path,
+            i,
+            layout.time_column,
+            f"time is not strictly increasing: {before!r} s then {after!r} s",
+            where=f"{layout.row_word} {i}",
+        )
+    if not keep.any():
+        raise SessionFormatError(f"{where}s: no sample with finite values")
+    tally = RunTally(n_channels=3, rate_hz=rate)
+    tally.push(t, temp, acc)
+    kept = pos[keep]
+    return Run(
+        orientation=label,
+        gravity_g=gravity_of(label),
+        time_s=t[keep].copy(),
+        temperature_c=temp[keep].copy(),
+        output=np.ascontiguousarray(acc[keep]),
+        count=np.ones(int(keep.sum()), dtype=np.int64),
+        extras={},
+        source=f"{layout.path}#{layout.fragment}{int(kept[0])}-{int(kept[-1])}",
+        stats=RunStats.from_raw(tally.finish()),
     )
