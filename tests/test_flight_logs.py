@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import struct
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from accelcore.errors import AccelcoreError, ParameterError, ParseError
+from accelcore.errors import AccelcoreError, DataQualityWarning, ParameterError, ParseError
 from accelcore.input.readers import read_dataflash, read_ulog
 
 pyulog = pytest.importorskip("pyulog")
@@ -86,14 +87,19 @@ def _fmt(kind: int, name: str, fmt: str, columns: str, length: int) -> bytes:
     )
 
 
-def _write_dataflash(path: Path, instances: dict[int, dict[str, np.ndarray]]) -> None:
+def _write_dataflash(
+    path: Path, instances: dict[int, dict[str, np.ndarray]], params: dict[str, float] | None = None
+) -> None:
     imu_fmt = "QBfffffffff"  # TimeUS, I, GyrX..Z, AccX..Z, EG, EA, T (EG/EA as floats here)
     columns = "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ,EG,EA,T"
     length = 3 + struct.calcsize("<" + imu_fmt)
     out = [
         _fmt(0x80, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns", 89),
         _fmt(163, "IMU", imu_fmt, columns, length),
+        _fmt(64, "PARM", "QNf", "TimeUS,Name,Value", 3 + struct.calcsize("<Q16sf")),
     ]
+    # The parameters, as ArduPilot writes them at the start of a log.
+    out += [_df_message(64, "Q16sf", 1000, k.encode(), v) for k, v in (params or {}).items()]
     n = len(next(iter(instances.values()))["timestamp"])
     for k in range(n):
         for i, c in instances.items():
@@ -314,3 +320,27 @@ def test_factor_one_keeps_every_sample_as_logged(kind: str, tmp_path: Path) -> N
     assert len(run) == N and np.all(run.count == 1)
     np.testing.assert_array_equal(run.time_s, sweep["timestamp"].astype(np.float64) * 1e-6)
     np.testing.assert_array_equal(run.output[:, 2], sweep["z"].astype(np.float64))
+
+
+def test_what_ardupilot_did_to_the_imu_data_is_said(tmp_path: Path) -> None:
+    """A log with ArduPilot's temperature correction on, or a rotated board: warned.
+
+    Its ``tempcal_IMU.py`` undoes both before fitting; a calibration of such data, and
+    an ArduPilot export of it, would be wrong without a word (the interop round).
+    """
+    plain = tmp_path / "plain.bin"
+    _write_dataflash(plain, {0: _sweep(0)}, {"INS_TCAL1_ENABLE": 0.0, "AHRS_ORIENTATION": 0.0})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataQualityWarning)
+        read_dataflash(plain)
+    on = tmp_path / "on.bin"
+    _write_dataflash(on, {0: _sweep(0), 1: _sweep(1)}, {"INS_TCAL2_ENABLE": 1.0})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataQualityWarning)
+        read_dataflash(on, instance=0)  # the second IMU's correction is not the first's
+    with pytest.warns(DataQualityWarning, match=r"on\.bin: INS_TCAL2_ENABLE = 1 in the log"):
+        read_dataflash(on, instance=1)
+    turned = tmp_path / "turned.bin"
+    _write_dataflash(turned, {0: _sweep(0)}, {"AHRS_ORIENTATION": 4.0})
+    with pytest.warns(DataQualityWarning, match=r"AHRS_ORIENTATION = 4 in the log"):
+        read_dataflash(turned)

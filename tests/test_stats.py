@@ -410,10 +410,14 @@ def test_acceptance_rule_matches_reference(
     # Sums of n positive terms, sequential against pairwise: the cut moves by ~n ε.
     cut_tol = 4.0 * (n + 1) * EPS
     assert got.cut == pytest.approx(want.cut, abs=cut_tol)
-    # The rule's p combines its two tests the same way on both sides, exactly.
+    # The rule's p combines its three tests the same way on both sides, exactly.
     for v in (got, want):
-        expect = min(1.0, 2.0 * min(v.p_sum, 1.0 if math.isnan(v.p_log) else v.p_log))
+        tests = [q for q in (v.p_sum, v.p_log, v.p_sign) if not math.isnan(q)]
+        expect = min(1.0, 3.0 * min(tests))
         assert v.p == expect or (math.isnan(v.p) and math.isnan(v.p_sum))
+    # The sign test counts signs: exact on both sides (integers against doubles exact
+    # below 2^53: C(n, j) for n up to the strategy's blocks).
+    assert got.p_sign == pytest.approx(want.p_sign, rel=1e-13)
     d = before - after
     both = (before > 0) & (after > 0)
     dl = np.log(before[both] / after[both])
@@ -429,7 +433,7 @@ def test_acceptance_rule_matches_reference(
     p_log_tol = p_tolerance(dl, t_log, want.p_log) + 0.4 * dt
     assert abs(got.p_log - want.p_log) <= p_log_tol
     # The verdicts agree away from the thresholds (where the figures' last digits decide).
-    tol = 2.0 * max(p_tol, p_log_tol)
+    tol = 3.0 * max(p_tol, p_log_tol, 1e-13 * want.p_sign)
     assume(abs(want.cut - min_improvement) > cut_tol and abs(want.p - alpha) > tol)
     assert got.accepted == want.accepted
 
@@ -440,7 +444,7 @@ def test_rule_is_the_selections_rule_written_out(
 ) -> None:
     # The selection's rule written out: cut from the held-out RMS sqrt(sum sse / sum w)
     # of each model; the paired test of the block differences and of their log ratios,
-    # Bonferroni-combined.
+    # and the sign test of the differences, Bonferroni-combined.
     before, after = blocks
     rms_before = math.sqrt(float(before.sum()) / weight_sum)
     rms_after = math.sqrt(float(after.sum()) / weight_sum)
@@ -451,7 +455,7 @@ def test_rule_is_the_selections_rule_written_out(
     if _zero_variance(d) or _zero_variance(dl):
         assume(False)
     test, test_log = reference.paired_test(d), reference.paired_test(dl)
-    p = min(1.0, 2.0 * min(test.p, test_log.p))
+    p = min(1.0, 3.0 * min(test.p, test_log.p, reference.sign_test(d)))
     inline = cut >= 0.10 and p < 0.01 and math.isfinite(cut)
     v = diagnosis_stats.accept(before, after, min_improvement=0.10, alpha=0.01)
     # Two roundings more on the inline side (the divisions by the weight sum).
@@ -460,7 +464,7 @@ def test_rule_is_the_selections_rule_written_out(
     # As in test_acceptance_rule_matches_reference, with the logs' few ulp.
     delta = 4.0 * EPS * float(np.abs(np.log(before[both])).max() + 1.0)
     dt = math.sqrt(dl.size) * delta / float(dl.std(ddof=1)) * (1.0 + abs(test_log.t))
-    p_tol = 2.0 * max(
+    p_tol = 3.0 * max(
         p_tolerance(d, test.t, test.p), p_tolerance(dl, test_log.t, test_log.p) + 0.4 * dt
     )
     assume(abs(cut - 0.10) > cut_tol and abs(p - 0.01) > p_tol)
@@ -472,7 +476,8 @@ def test_acceptance_rule_cases_and_errors() -> None:
     assert (rule.min_improvement, rule.alpha) == (0.1, 0.01)
     v = rule.judge([4.0, 5.0, 4.5, 5.5, 4.8], [1.0, 1.2, 0.9, 1.1, 1.0])
     assert v.accepted and v.n == 5 and v.p < 1e-4
-    assert v.p == min(1.0, 2.0 * min(v.p_sum, v.p_log))
+    assert v.p == min(1.0, 3.0 * min(v.p_sum, v.p_log, v.p_sign))
+    assert v.p_sign == 0.5**5  # every block cut
     # A cut on most blocks while one block dominates the total: the log ratio sees it.
     broad = rule.judge([20.0, *[1.0] * 7], [14.0, 0.4, 0.35, 0.4, 0.45, 0.4, 0.35, 0.4])
     assert broad.p_sum > 0.01 and broad.p_log < 1e-4 and broad.accepted

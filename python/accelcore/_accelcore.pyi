@@ -1291,13 +1291,16 @@ class Acceptance:
     t : float
         Student's t of the paired test of ``current - candidate`` per block.
     p : float
-        The rule's one-sided p-value, ``min(1, 2 min(p_sum, p_log))`` (NaN when
-        ``p_sum`` is).
+        The rule's one-sided p-value, ``min(1, 3 min(p_sum, p_log, p_sign))`` (NaN
+        when ``p_sum`` is).
     p_sum : float
         One-sided p-value of the paired test of ``current - candidate`` (the total).
     p_log : float
         One-sided p-value of the paired test of ``log(current / candidate)`` over the
         blocks where both are positive (every block alike).
+    p_sign : float
+        One-sided p-value of the exact sign test of ``current - candidate`` (how many
+        blocks it cuts, whatever by).
     n : int
         Blocks compared.
     """
@@ -1314,6 +1317,8 @@ class Acceptance:
     def p_sum(self) -> float: ...
     @property
     def p_log(self) -> float: ...
+    @property
+    def p_sign(self) -> float: ...
     @property
     def n(self) -> int: ...
 

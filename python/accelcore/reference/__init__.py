@@ -24,7 +24,8 @@ One module per kernel, named as its Rust twin in ``rust/accelcore-core/src``:
 - :mod:`~accelcore.reference.heldout`: :func:`cross_validate`, the held-out fits of
   ``BlockedLeastSquares`` by refitting the rows of every other fold;
 - :mod:`~accelcore.reference.stats`: the statistics that accept or reject a term
-  (:func:`chi2_sf`, :func:`t_sf`, :func:`f_sf`, :func:`paired_test`, :func:`bonferroni`,
+  (:func:`chi2_sf`, :func:`t_sf`, :func:`f_sf`, :func:`paired_test`, :func:`sign_test`,
+  :func:`bonferroni`,
   :func:`holm`, :class:`AcceptanceRule`), plain functions rather than kernels;
 - :mod:`~accelcore.reference.search`: :class:`TimeConstantSearch`, a time constant by
   the held-out error of trials built and refitted plainly;
@@ -63,6 +64,7 @@ from accelcore.reference.stats import (
     f_sf,
     holm,
     paired_test,
+    sign_test,
     t_sf,
 )
 
@@ -95,6 +97,7 @@ __all__ = [
     "holm",
     "paired_test",
     "running_median",
+    "sign_test",
     "sliding_median",
     "t_sf",
 ]

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -34,6 +35,7 @@ __all__ = [
     "f_sf",
     "holm",
     "paired_test",
+    "sign_test",
     "t_sf",
 ]
 
@@ -315,7 +317,7 @@ class Acceptance:
     """The verdict of an :class:`AcceptanceRule`.
 
     ``accepted``, ``cut``, ``t`` (of the test of the differences), ``p`` (the rule's),
-    ``p_sum`` and ``p_log`` (the two tests it combines), ``n``.
+    ``p_sum``, ``p_log`` and ``p_sign`` (the three tests it combines), ``n``.
     """
 
     accepted: bool
@@ -324,7 +326,24 @@ class Acceptance:
     p: float
     p_sum: float
     p_log: float
+    p_sign: float
     n: int
+
+
+def sign_test(diff: ArrayLike) -> float:
+    """One-sided exact sign test that the differences are more often positive than not.
+
+    ``P(K >= k)`` for ``K ~ Binomial(n, 1/2)``: ``n`` the non-zero differences, ``k``
+    the positive ones, in exact integers (``math.comb``). No difference gives 1, a NaN
+    gives NaN.
+    """
+    d = np.asarray(diff, dtype=np.float64).ravel()
+    if np.isnan(d).any():
+        return math.nan
+    n, k = int(np.count_nonzero(d)), int(np.count_nonzero(d > 0))
+    if n == 0:
+        return 1.0
+    return min(1.0, float(Fraction(sum(math.comb(n, j) for j in range(k, n + 1)), 2**n)))
 
 
 class AcceptanceRule:
@@ -332,9 +351,10 @@ class AcceptanceRule:
 
     The held-out RMS error falls by at least ``min_improvement`` and the paired
     one-sided test over blocks gives ``p < alpha``: the t-test of the per-block change
-    of held-out squared error (``p_sum``) and the t-test of its log ratio over the
-    blocks where both errors are positive (``p_log``), combined as
-    ``p = min(1, 2 min(p_sum, p_log))`` (NaN when ``p_sum`` is).
+    of held-out squared error (``p_sum``), the t-test of its log ratio over the
+    blocks where both errors are positive (``p_log``) and the exact sign test of the
+    change (``p_sign``), combined as ``p = min(1, 3 min(p_sum, p_log, p_sign))`` over
+    those that are not NaN (NaN when ``p_sum`` is).
 
     Parameters
     ----------
@@ -387,9 +407,10 @@ class AcceptanceRule:
         test = paired_test(current - candidate)
         both = (current > 0) & (candidate > 0)
         p_log = paired_test(np.log(current[both] / candidate[both])).p
+        p_sign = sign_test(current - candidate)
         if math.isnan(test.p):
             p = math.nan
         else:
-            p = min(1.0, 2.0 * min(test.p, 1.0 if math.isnan(p_log) else p_log))
+            p = min(1.0, 3.0 * min(q for q in (test.p, p_log, p_sign) if not math.isnan(q)))
         ok = math.isfinite(cut) and cut >= self.min_improvement and p < self.alpha
-        return Acceptance(ok, cut, test.t, p, test.p, p_log, test.n)
+        return Acceptance(ok, cut, test.t, p, test.p, p_log, p_sign, test.n)

@@ -118,6 +118,7 @@ pub(crate) struct PyAcceptance {
     p: f64,
     p_sum: f64,
     p_log: f64,
+    p_sign: f64,
     n: usize,
 }
 
@@ -125,13 +126,15 @@ pub(crate) struct PyAcceptance {
 impl PyAcceptance {
     fn __repr__(&self) -> String {
         format!(
-            "Acceptance(accepted={}, cut={:.6}, t={:.6}, p={:.6e}, p_sum={:.6e}, p_log={:.6e}, n={})",
+            "Acceptance(accepted={}, cut={:.6}, t={:.6}, p={:.6e}, p_sum={:.6e}, p_log={:.6e}, \
+             p_sign={:.6e}, n={})",
             if self.accepted { "True" } else { "False" },
             self.cut,
             self.t,
             self.p,
             self.p_sum,
             self.p_log,
+            self.p_sign,
             self.n
         )
     }
@@ -185,6 +188,7 @@ impl PyAcceptanceRule {
             p: v.p,
             p_sum: v.p_sum,
             p_log: v.p_log,
+            p_sign: v.p_sign,
             n: v.n,
         })
     }

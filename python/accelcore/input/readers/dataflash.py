@@ -7,12 +7,13 @@ that ``import accelcore`` works without it.
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 
-from accelcore.errors import ParameterError
+from accelcore.errors import DataQualityWarning, ParameterError
 from accelcore.input.readers import common
 from accelcore.input.readers.common import _check_file, _parse_error
 from accelcore.input.readers.flightlog import (
@@ -155,6 +156,8 @@ def _read(
 ) -> Session:
     name, by_field = _stream_name(reader, file, instance)
     seen: set[int] = set()
+    tcal = f"INS_TCAL{instance + 1}_ENABLE"
+    params: dict[str, float] = {}
 
     def rows() -> Iterator[FlightRows]:
         buffer: list[tuple[float, float, float, float, float]] = []
@@ -166,9 +169,14 @@ def _read(
             return FlightRows(time_s=a[:, 0] * 1e-6, temperature_c=a[:, 4], accel=a[:, 1:4])
 
         while True:
-            m = reader.recv_match(type=name)
+            m = reader.recv_match(type=[name, "PARM"])
             if m is None:
                 break
+            if m.get_type() == "PARM":
+                # What the log's IMU data already went through (read as they come).
+                if m.Name in (tcal, "AHRS_ORIENTATION"):
+                    params[m.Name] = float(m.Value)
+                continue
             if by_field:
                 seen.add(int(m.I))
                 if m.I != instance:
@@ -187,7 +195,7 @@ def _read(
                 )
             raise _parse_error(file, 1, 1, f"no {name} message in the log", where=None)
 
-    return flight_session(
+    session = flight_session(
         rows(),
         file=file,
         stream=f"IMU[{instance}]",
@@ -199,3 +207,35 @@ def _read(
         min_count=min_count,
         settle_s=settle_s,
     )
+    _warn_of_params(file, instance, params, tcal)
+    return session
+
+
+def _warn_of_params(file: str, instance: int, params: dict[str, float], tcal: str) -> None:
+    """Warn of what the log's parameters did to its IMU data before it was logged.
+
+    ArduPilot logs the IMU after its own temperature correction (``INS_TCALn_ENABLE =
+    1``) and in the body frame, after the board's rotation (``AHRS_ORIENTATION``),
+    while it applies a temperature correction in the sensor frame, before that rotation
+    (``AP_InertialSensor_Backend``; its ``tempcal_IMU.py`` undoes both first).
+    """
+    if params.get(tcal, 0.0) == 1.0:
+        warnings.warn(
+            f"{file}: {tcal} = 1 in the log: ArduPilot had already corrected IMU "
+            f"{instance} for temperature; a calibration of these data fits what that "
+            f"correction left, and an ArduPilot export of it would replace it. Log the "
+            f"thermal calibration with {tcal} = 0",
+            DataQualityWarning,
+            stacklevel=3,
+        )
+    rotation = params.get("AHRS_ORIENTATION", 0.0)
+    if rotation != 0.0:
+        warnings.warn(
+            f"{file}: AHRS_ORIENTATION = {rotation:g} in the log: its IMU data are in the "
+            "board's rotated (body) frame, while ArduPilot applies a temperature "
+            "correction in the sensor's frame, before that rotation; an ArduPilot export "
+            "of this calibration would correct the wrong axes. Log with "
+            "AHRS_ORIENTATION = 0, or rotate the calibration back to the sensor's frame",
+            DataQualityWarning,
+            stacklevel=3,
+        )

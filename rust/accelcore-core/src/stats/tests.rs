@@ -379,7 +379,8 @@ fn acceptance_rule() {
         .map(|(c, k)| c.ln() - k.ln())
         .collect();
     assert_eq!(v.p_log, paired_test(&logs).p);
-    assert_eq!(v.p, (2.0 * v.p_sum.min(v.p_log)).min(1.0));
+    assert_eq!(v.p_sign, sign_test(&diff));
+    assert_eq!(v.p, (3.0 * v.p_sum.min(v.p_log).min(v.p_sign)).min(1.0));
     // A cut on most blocks while one block dominates the total: the log ratio sees it.
     let broad = rule
         .judge(
@@ -503,4 +504,60 @@ mod properties {
             prop_assert!(!v.accepted && v.cut == 0.0 && (v.p == 1.0 || v.n < 2));
         }
     }
+}
+
+#[test]
+fn sign_test_is_the_binomial_tail() {
+    // Every one of n positive: 2^-n; zeros are no evidence; NaN in, NaN out.
+    for n in 1..=40 {
+        assert_eq!(sign_test(&vec![1.0; n]), 0.5f64.powi(n as i32), "{n}");
+    }
+    assert_eq!(sign_test(&[1.0, -1.0]), 0.75);
+    assert_eq!(sign_test(&[2.0, 0.0, 3.0, 0.0]), 0.25);
+    assert_eq!(sign_test(&[0.0, 0.0]), 1.0);
+    assert_eq!(sign_test(&[]), 1.0);
+    assert!(sign_test(&[1.0, f64::NAN]).is_nan());
+    // 8 of 10: (C(10,8) + C(10,9) + C(10,10)) / 1024 = 56 / 1024.
+    let d = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, -1.0, -1.0];
+    assert!((sign_test(&d) - 56.0 / 1024.0).abs() < 1e-16);
+    // Past 1000 differences, in log space: the same tail as the direct sum, to 1e-12.
+    let many: Vec<f64> = (0..1200)
+        .map(|i| if i % 2 == 0 || i % 7 == 0 { 1.0 } else { -1.0 })
+        .collect();
+    let k = many.iter().filter(|d| **d > 0.0).count();
+    let direct: f64 = (k..=1200)
+        .map(|j| {
+            (ln_gamma(1201.0)
+                - ln_gamma(j as f64 + 1.0)
+                - ln_gamma((1200 - j) as f64 + 1.0)
+                - 1200.0 * std::f64::consts::LN_2)
+                .exp()
+        })
+        .sum();
+    assert!(
+        (sign_test(&many) - direct).abs() <= 1e-12 * direct,
+        "{} {direct}",
+        sign_test(&many)
+    );
+}
+
+#[test]
+fn a_cut_on_every_block_of_a_few_passes_where_its_size_varies() {
+    // A heating sweep's curvature: nine held-out blocks, the two coldest cut 100-fold,
+    // every other a little (PX4-style log of the interop round). Both t-tests give p
+    // about 0.04; the sign test 2^-9, so p = 3 * 2^-9 < 0.01.
+    let rule = AcceptanceRule::new(0.1, 0.01).unwrap();
+    let before = [342.2, 84.31, 15.41, 5.36, 4.5, 5.32, 2.82, 4.13, 2.86];
+    let after = [2.59, 2.81, 2.8, 2.47, 2.84, 2.74, 2.8, 2.68, 2.46];
+    let v = rule.judge(&before, &after).unwrap();
+    assert!(v.p_sum > 0.01 && v.p_log > 0.01, "{v:?}");
+    assert_eq!(v.p_sign, 0.5f64.powi(9));
+    assert!(
+        v.accepted && (v.p - 3.0 * 0.5f64.powi(9)).abs() < 1e-18,
+        "{v:?}"
+    );
+    // One block of the nine made worse: the sign test's 10/512, no longer enough.
+    let mut worse = after;
+    worse[6] = 2.9;
+    assert!(!rule.judge(&before, &worse).unwrap().accepted);
 }
