@@ -1329,7 +1329,8 @@ class AcceptanceRule:
     The held-out RMS error falls by at least ``min_improvement`` *and* the paired
     one-sided test over blocks gives ``p < alpha``: two paired t-tests, on the per-block
     change of held-out squared error (the total) and on its log ratio (every block
-    alike), Bonferroni-combined.
+    alike), and the exact sign test of that change (how many blocks it cuts),
+    Bonferroni-combined.
     Not adjusted for the number of candidates compared: ``min_improvement`` guards
     against a lucky one.
 

@@ -8,7 +8,7 @@ each axis), else the legs of the temperature cycle, else every third block of ea
 family is added to an axis when the axis' held-out RMS error falls by at least
 ``min_improvement`` *and* the paired one-sided test over held-out blocks of ``block_s``
 seconds (:class:`accelcore.core.AcceptanceRule`: the per-block change of the squared
-error and its log ratio) is significant at ``alpha``. Each step adds the family with the
+error, its log ratio and its sign) is significant at ``alpha``. Each step adds the family with the
 largest total cut of held-out squared error over the axes that accept it, then revisits
 the lag of every axis, and repeats.
 

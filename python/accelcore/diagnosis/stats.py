@@ -97,7 +97,8 @@ def accept(
 
     The held-out RMS error falls by at least ``min_improvement`` and the paired one-sided
     test over blocks gives ``p < alpha``: the t-tests of the per-block change of held-out
-    squared error and of its log ratio, Bonferroni-combined.
+    squared error and of its log ratio and the exact sign test of that change,
+    Bonferroni-combined.
 
     The least improvement may instead be met on the *systematic* error: the held-out
     squared error above ``floor`` (the noise every model leaves), which is what another

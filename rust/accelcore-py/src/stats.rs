@@ -142,7 +142,7 @@ impl PyAcceptance {
 
 /// When the diagnosis adds a term to an axis: the held-out RMS error falls by at least
 /// ``min_improvement`` and the paired one-sided test over blocks (the change of squared
-/// error and its log ratio, Bonferroni-combined) gives ``p < alpha``.
+/// error, its log ratio and its sign, Bonferroni-combined) gives ``p < alpha``.
 #[pyclass(name = "AcceptanceRule", module = "accelcore.core", frozen)]
 pub(crate) struct PyAcceptanceRule {
     inner: stats::AcceptanceRule,
