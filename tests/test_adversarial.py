@@ -214,6 +214,15 @@ def test_calibration_save_onto_a_file_it_was_fitted_on_is_refused(S: Path) -> No
     assert info.value.output == str(S / "x_neg.csv")
 
 
+def test_two_outputs_onto_one_file_are_refused(S: Path, tmp_path: Path) -> None:
+    """--save o.json --json o.json: the JSON replaced the calibration it said it saved."""
+    target = tmp_path / "o.json"
+    with untouched(S):
+        status, _, err = run_main("calibrate", S, "--save", target, "--json", target)
+    assert status == 2 and "two outputs name one file" in err, err
+    assert not target.exists()
+
+
 def test_a_new_file_next_to_the_inputs_is_allowed(S: Path, CAL: Path) -> None:
     with untouched(S, CAL):
         status, _, err = run_main("calibrate", S, "--save", S / "new.cal.json", "--json", "-")
@@ -428,6 +437,9 @@ def test_t_ref_nan_is_a_parameter_error(S: Path) -> None:
     session = accelcore.load_session(S, cache=False)
     with pytest.raises(accelcore.ParameterError, match="t_ref_c"):
         accelcore.calibrate(session, t_ref_c=math.nan)
+    # 1e308 °C: finite, but its design (T - t_ref) was inf, blamed on the data.
+    with pytest.raises(accelcore.ParameterError, match=r"t_ref_c.*-273.15 to 1000"):
+        accelcore.calibrate(session, t_ref_c=1e308)
     with pytest.raises(accelcore.ParameterError, match="window_c"):
         accelcore.calibrate(session, window_c=(60.0, 0.0))
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +25,7 @@ from numpy.typing import NDArray
 from pymavlink import mavparm  # type: ignore[import-untyped]
 
 from accelcore.constants import STANDARD_GRAVITY as G0
-from accelcore.errors import CalibrationFileError, ParameterError
+from accelcore.errors import CalibrationFileError, ParameterError, TemperatureRangeWarning
 from accelcore.model import Term
 from accelcore.outputs.exports import export_ardupilot, export_imucal, export_px4
 from accelcore.result.calibration import AxisModel, Calibration
@@ -372,3 +373,15 @@ def test_read_imucal_errors(tmp_path: Path) -> None:
     singular = {**good, "R_a": [[1, 0, 0], [1, 0, 0], [0, 0, 1]]}
     with pytest.raises(CalibrationFileError, match="singular"):
         read_imucal(write_json(tmp_path / "s.json", singular))
+
+
+def test_imucal_export_outside_the_calibrated_range_warns() -> None:
+    """Held at 500 °C of a -2…65 °C calibration: said, not written in silence."""
+    cal = dataclasses.replace(tilted_cal(), temperature_range_c=(-2.0, 65.0))
+    with pytest.warns(TemperatureRangeWarning, match=r"500 °C, outside the calibrated range"):
+        export_imucal(cal, temperature_c=500.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", TemperatureRangeWarning)
+        export_imucal(cal, temperature_c=40.0)
+    with pytest.raises(ParameterError, match="finite"):
+        export_imucal(cal, temperature_c=math.nan)

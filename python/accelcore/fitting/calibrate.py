@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from accelcore import core
-from accelcore._accelcore import __version__
+from accelcore._accelcore import MAX_TEMPERATURE_C, MIN_TEMPERATURE_C, __version__
 from accelcore.errors import InsufficientDataError, ParameterError, SingularSystemError
 from accelcore.fitting.reduced import Reduced, functions_of, shared
 from accelcore.fitting.stacking import CutFeatures, Stacked, block_weights, stack_session
@@ -405,8 +405,13 @@ def _check_options(
     t_ref_c: object, window_c: tuple[float, float] | None, bin_width_c: object
 ) -> None:
     """Argument errors before any data is touched, named after the argument."""
-    if not _finite(t_ref_c):
-        raise _parameter("t_ref_c", f"must be a finite temperature in °C, got {t_ref_c!r}")
+    # 1e308 °C gave a design of inf (T - t_ref), named as the data's fault.
+    if not _finite(t_ref_c) or not MIN_TEMPERATURE_C <= float(t_ref_c) <= MAX_TEMPERATURE_C:  # type: ignore[arg-type]
+        raise _parameter(
+            "t_ref_c",
+            f"must be a temperature in °C ({MIN_TEMPERATURE_C:g} to {MAX_TEMPERATURE_C:g}), "
+            f"got {t_ref_c!r}",
+        )
     if window_c is not None:
         if len(window_c) != 2 or not all(_finite(v) for v in window_c):
             raise _parameter("window_c", f"must be two finite temperatures, got {window_c!r}")

@@ -113,6 +113,16 @@ def guard(inputs: Iterable[str | Path], outputs: Iterable[str | Path | None]) ->
     """
     wanted = [o for o in outputs if o is not None and str(o) != "-"]
     check_outputs(inputs, wanted)
+    # Two outputs onto one file: the second would replace the first (--save o.json
+    # --json o.json left the JSON document where the calibration was said to be saved).
+    for i, o in enumerate(wanted):
+        for other in wanted[:i]:
+            if Path(o).resolve() == Path(other).resolve():
+                conflict = OutputConflictError(
+                    f"two outputs name one file, {other} and {o}: each needs its own"
+                )
+                conflict.output, conflict.input = str(o), str(other)
+                raise conflict
     for o in wanted:
         folder = Path(o).parent
         if not folder.is_dir():

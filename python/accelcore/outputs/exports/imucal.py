@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -24,7 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore.errors import InsufficientDataError
+from accelcore.errors import InsufficientDataError, ParameterError, TemperatureRangeWarning
 from accelcore.files import atomic_write
 from accelcore.outputs.exports._model import describe, local_gravity, model_at
 from accelcore.result.calibration import Calibration
@@ -133,6 +134,16 @@ def export_imucal(cal: Calibration, *, temperature_c: float | None = None) -> Im
     ImucalExport
     """
     t = cal.t_ref_c if temperature_c is None else float(temperature_c)
+    lo, hi = cal.temperature_range_c
+    if not math.isfinite(t):
+        raise ParameterError(f"temperature_c must be a finite temperature in °C, got {t!r}")
+    if math.isfinite(lo) and math.isfinite(hi) and not lo <= t <= hi:
+        warnings.warn(
+            f"imucal export held at {t:g} °C, outside the calibrated range {lo:.2f}…{hi:.2f} °C: "
+            "the model is extrapolated there",
+            TemperatureRangeWarning,
+            stacklevel=2,
+        )
     offset, gain = model_at(cal, t)
     g0 = local_gravity(cal)
     scaled = gain / g0
