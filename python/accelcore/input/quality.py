@@ -54,6 +54,7 @@ from accelcore.input.levels import level_grid, quantiser_sigma
 from accelcore.input.pinned import pinned_mask, pinned_stretches, pinned_text
 from accelcore.input.records import records
 from accelcore.input.session import Run, Session
+from accelcore.input.temperature_units import other_unit_runs
 
 __all__ = ["QualityIssue", "check_session", "excluded_blocks"]
 
@@ -186,6 +187,10 @@ def check_session(
         window_c = _logged_range(session)
     if window_c is not None and session.has_temperature:
         issues += _check_temperature(session, window_c, bin_width_c, min_bins)
+    issues += [
+        QualityIssue("temperature", text, run=run.label)
+        for run, text in other_unit_runs(session.runs)
+    ]
     issues += _check_short_runs(session, short_fraction)
     if warn:
         for issue in issues:
