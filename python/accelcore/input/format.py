@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore._accelcore import MAX_TEMPERATURE_C, MIN_TEMPERATURE_C
 from accelcore.constants import (
     DEFAULT_COLUMNS,
     DELIMITERS,
@@ -49,36 +48,12 @@ __all__ = [
     "check_distinct_columns",
     "check_units",
     "gravity_of",
-    "impossible_temperature",
-    "not_a_temperature",
 ]
 
 #: Name of the settings file of a session folder.
 TOML_NAME = "session.toml"
 #: A session.toml is a few kB; a larger file is not read (a 2 GB sparse file would be).
 MAX_TOML_BYTES = 16 << 20
-
-
-def impossible_temperature(temperature_c: NDArray[np.float64]) -> int | None:
-    """Return the index of the first finite value no thermometer reads, or None.
-
-    Logs hold °C: a value below absolute zero or above ``MAX_TEMPERATURE_C`` (1000 °C)
-    is a corrupt value (a flight log's garbage message decodes as -6e26 °C) or another
-    unit, never a temperature. The Rust reader refuses such a cell at its line and
-    column; the other readers and :meth:`Session.from_arrays` use this.
-    """
-    t = np.asarray(temperature_c, dtype=np.float64)
-    bad = np.isfinite(t) & ((t < MIN_TEMPERATURE_C) | (t > MAX_TEMPERATURE_C))
-    return int(np.argmax(bad)) if bad.any() else None
-
-
-def not_a_temperature(value: float) -> str:
-    """Return the message of a value :func:`impossible_temperature` found."""
-    shown = f"{value:e}" if abs(value) >= 1e6 else f"{value:g}"
-    return (
-        f"temperature {shown} is not one in °C (below absolute zero or above "
-        f"{MAX_TEMPERATURE_C:g} °C): a corrupt value, or another unit"
-    )
 
 
 def gravity_of(orientation: str) -> NDArray[np.float64]:

@@ -42,15 +42,10 @@ from accelcore.errors import (
 from accelcore.input.cache import CacheSetting, Probe, RunCache, RunRecord
 from accelcore.input.consistency import check_labels, check_rate
 from accelcore.input.defaults import check_gravity, default_decimation_factor, fill_unlogged
-from accelcore.input.format import (
-    SessionFormat,
-    check_units,
-    gravity_of,
-    impossible_temperature,
-    not_a_temperature,
-)
+from accelcore.input.format import SessionFormat, check_units, gravity_of
 from accelcore.input.frames import check_complete_rows, frame_columns, run_table
 from accelcore.input.run import Run, RunStats
+from accelcore.input.temperature_units import impossible_temperature, not_a_temperature
 from accelcore.pools import shared_pool
 
 __all__ = [

@@ -1,4 +1,9 @@
-"""A run whose temperature reads in another unit than the others' (°F, kelvin).
+"""Temperatures that are not °C: a value no thermometer reads, a run in °F or kelvin.
+
+:func:`impossible_temperature` finds a value below absolute zero or above 1000 °C (a
+corrupt cell or message): the readers refuse it where it is.
+:func:`other_unit_runs` finds a run whose temperature reads in another unit than the
+others' (°F, kelvin).
 
 The format's temperatures are °C. One run logged by another logger in °F reads 28…149
 where the others read −2…65: every fit takes it as a part hotter than any chamber got,
@@ -11,7 +16,7 @@ A run is flagged when its temperature span (5th to 95th percentile) lies more th
 another part of the range (overlapping sweeps, a run cut short) does not convert onto
 the others' span, and is not flagged.
 
-Imports: NumPy.
+Imports: NumPy, the core's temperature bounds and the run.
 """
 
 from __future__ import annotations
@@ -19,10 +24,20 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 
 import numpy as np
+from numpy.typing import NDArray
 
+from accelcore._accelcore import MAX_TEMPERATURE_C, MIN_TEMPERATURE_C
 from accelcore.input.run import Run
 
-__all__ = ["MATCH_C", "MIN_RUNS", "OFF_C", "UNITS", "other_unit_runs"]
+__all__ = [
+    "MATCH_C",
+    "MIN_RUNS",
+    "OFF_C",
+    "UNITS",
+    "impossible_temperature",
+    "not_a_temperature",
+    "other_unit_runs",
+]
 
 #: The units a temperature column is logged in by mistake, with their conversion to °C.
 UNITS: tuple[tuple[str, Callable[[float], float]], ...] = (
@@ -38,6 +53,28 @@ OFF_C = 15.0
 
 #: Converted, both ends of its span within this of the others', °C.
 MATCH_C = 5.0
+
+
+def impossible_temperature(temperature_c: NDArray[np.float64]) -> int | None:
+    """Return the index of the first finite value no thermometer reads, or None.
+
+    Logs hold °C: a value below absolute zero or above ``MAX_TEMPERATURE_C`` (1000 °C)
+    is a corrupt value (a flight log's garbage message decodes as -6e26 °C) or another
+    unit, never a temperature. The Rust reader refuses such a cell at its line and
+    column; the other readers and :meth:`Session.from_arrays` use this.
+    """
+    t = np.asarray(temperature_c, dtype=np.float64)
+    bad = np.isfinite(t) & ((t < MIN_TEMPERATURE_C) | (t > MAX_TEMPERATURE_C))
+    return int(np.argmax(bad)) if bad.any() else None
+
+
+def not_a_temperature(value: float) -> str:
+    """Return the message of a value :func:`impossible_temperature` found."""
+    shown = f"{value:e}" if abs(value) >= 1e6 else f"{value:g}"
+    return (
+        f"temperature {shown} is not one in °C (below absolute zero or above "
+        f"{MAX_TEMPERATURE_C:g} °C): a corrupt value, or another unit"
+    )
 
 
 def _span(run: Run) -> tuple[float, float] | None:

@@ -23,11 +23,12 @@ import numpy as np
 
 from accelcore._accelcore import RunTally
 from accelcore.errors import AccelcoreError, ParameterError, SessionFormatError
-from accelcore.input.format import gravity_of, impossible_temperature, not_a_temperature
+from accelcore.input.format import gravity_of
 from accelcore.input.readers.common import _check_rate, _check_settle, _FloatArray, _parse_error
 from accelcore.input.readers.segment import _Chunk, _Layout, _segment
 from accelcore.input.run import Run, RunStats
 from accelcore.input.session import Session, default_decimation_factor
+from accelcore.input.temperature_units import impossible_temperature, not_a_temperature
 
 __all__ = ["FlightRows", "flight_session", "require"]
 

@@ -27,9 +27,10 @@ from accelcore.errors import (
     SessionFormatError,
     TimeOrderError,
 )
-from accelcore.input.format import gravity_of, impossible_temperature, not_a_temperature
+from accelcore.input.format import gravity_of
 from accelcore.input.readers.common import _LABELS, _FloatArray, _parse_error
 from accelcore.input.session import Run, RunStats, _make_run
+from accelcore.input.temperature_units import impossible_temperature, not_a_temperature
 
 
 class _RunBuilder:
