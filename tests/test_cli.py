@@ -430,6 +430,15 @@ def test_compensate_refuses_what_would_give_a_wrong_number(
         "compensate", cal_file, sim.path / "x_pos.csv", "-o", out_csv, "--session", other
     )
     assert status == 1 and "in g but the calibration" in err and "is in V" in err, err
+    # --session says ms for a log in seconds: every step read 1000x short.
+    ms = tmp_path / "ms"
+    ms.mkdir()
+    toml = (sim.path / "session.toml").read_text()
+    (ms / "session.toml").write_text(toml.replace('time_unit = "s"', 'time_unit = "ms"', 1))
+    status, _, err = run_main(
+        "compensate", cal_file, sim.path / "x_pos.csv", "-o", out_csv, "--session", ms
+    )
+    assert status == 1 and "rate_hz or time_unit is wrong" in err, err
     # Spaces after the commas: read as the session reader reads them.
     spaced = tmp_path / "spaced.csv"
     spaced.write_text("\n".join(r.replace(",", ", ") for r in rows[:200]) + "\n")

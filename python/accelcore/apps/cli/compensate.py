@@ -306,6 +306,8 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
         chunks = _parquet_chunks(source, needed, args.chunk_rows)
     else:
         chunks = _text_chunks(source, delimiter, needed, args.chunk_rows)
+    if args.session:
+        chunks = _check_rate(chunks, source, args.session, names["time"], time_scale)
     target = require_folder(args.output)
     n_rows = n_out_of_range = n_nan = 0
     kept = [names["time"], *([names["temperature"]] if names["temperature"] else [])]
@@ -341,6 +343,38 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
             file=sys.stderr,
         )
     return 0
+
+
+#: How far a log's median time step may be from the session's ``1 / rate_hz`` (a ratio).
+RATE_SLACK = 1.5
+
+
+def _check_rate(
+    chunks: Generator[pd.DataFrame], source: Path, session: str, time: str, scale: float
+) -> Generator[pd.DataFrame]:
+    """Yield the chunks, refusing a log whose time steps contradict the session's rate.
+
+    A ``time_unit`` of ms for a log in seconds read every step 1000x short: the
+    compensation's lags and rates would follow another clock in silence (the load of a
+    session refuses the same mismatch, :func:`accelcore.input.consistency`).
+    """
+    rate = SessionFormat.read(session, check_files=False).rate_hz
+    first = next(chunks, None)
+    if first is None:
+        return
+    steps = np.diff(first[time].to_numpy(dtype=np.float64) * scale)
+    steps = steps[np.isfinite(steps) & (steps > 0)]
+    if steps.size:
+        step = float(np.median(steps))
+        if not 1.0 / RATE_SLACK <= step * rate <= RATE_SLACK:
+            chunks.close()
+            raise CliDataError(
+                f"{source}: its time stamps are {step:.6g} s apart in the --session's "
+                f"time_unit, where its rate_hz = {rate:g} Hz says {1.0 / rate:.6g} s: rate_hz "
+                "or time_unit is wrong for this log"
+            )
+    yield first
+    yield from chunks
 
 
 def _bad_cell(source: Path, delimiter: str, needed: Sequence[str]) -> ParseError | None:
