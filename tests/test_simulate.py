@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 import tomllib
 import types
@@ -433,3 +434,21 @@ def test_full_size_session(tmp_path: Path) -> None:
     assert [r.n_samples for r in sim.runs] == [144_000] * 6
     with (tmp_path / "z_neg.csv").open(encoding="ascii") as fh:
         assert sum(1 for _ in fh) == 144_001
+
+
+def test_overwrite_never_writes_through_a_link(tmp_path: Path) -> None:
+    """--overwrite into a folder whose files link elsewhere: the links go, not their targets."""
+    folder = tmp_path / "s"
+    simulate.session(folder, "ADXL335", seed=1, duration_h=0.02, soak_min=0.2)
+    outside = tmp_path / "precious.csv"
+    outside.write_text("keep me\n")
+    hard = tmp_path / "hard.toml"
+    hard.write_text("keep me too\n")
+    (folder / "x_pos.csv").unlink()
+    (folder / "x_pos.csv").symlink_to(outside)
+    (folder / "session.toml").unlink()
+    os.link(hard, folder / "session.toml")
+    simulate.session(folder, "ADXL335", seed=2, duration_h=0.02, soak_min=0.2, overwrite=True)
+    assert outside.read_text() == "keep me\n" and hard.read_text() == "keep me too\n"
+    assert not (folder / "x_pos.csv").is_symlink()
+    assert (folder / "session.toml").stat().st_nlink == 1

@@ -106,6 +106,15 @@ def _value_format(cfg: Config) -> str:
     return f"%.{decimals}f"
 
 
+def _unlink(path: Path) -> None:
+    """Remove what ``path`` names before it is written: a new file, never through a link.
+
+    With ``overwrite``, an old file may be a symbolic or hard link to a file outside the
+    folder; opening it for writing would write over that file.
+    """
+    path.unlink(missing_ok=True)
+
+
 def _write_csv(path: Path, run: SimulatedRun, cfg: Config) -> None:
     names = list(run.columns)
     value_fmt = _value_format(cfg)
@@ -113,6 +122,7 @@ def _write_csv(path: Path, run: SimulatedRun, cfg: Config) -> None:
     formats += [value_fmt] * 3 + [f"%.{EXTRA_DECIMALS[n]}f" for n in names[len(_BASE_COLUMNS) :]]
     row = ",".join(formats) + "\n"
     table = np.column_stack([run.columns[n] for n in names])
+    _unlink(path)
     with path.open("w", encoding="ascii", newline="\n") as fh:
         fh.write(",".join(names) + "\n")
         for start in range(0, table.shape[0], _ROWS_PER_CHUNK):
@@ -284,8 +294,10 @@ def session(
     for run in simulate_runs(cfg):
         _write_csv(folder / run.file, run, cfg)
         runs.append(RunFile(run.orientation, run.file, cfg.n_samples))
+    _unlink(folder / "session.toml")
     (folder / "session.toml").write_text(_session_toml(cfg), encoding="utf-8")
     if write_truth:
+        _unlink(folder / "truth.toml")
         (folder / "truth.toml").write_text(_truth_toml(cfg), encoding="utf-8")
     return SimulatedSession(
         path=folder,
