@@ -449,6 +449,23 @@ def test_compensate_refuses_what_would_give_a_wrong_number(
     assert run_main("compensate", cal_file, plain, "-o", tmp_path / "p.csv")[0] == 0
     pd.testing.assert_frame_equal(pd.read_csv(out_csv), pd.read_csv(tmp_path / "p.csv"))
     assert not any(p.name.startswith("o.csv.") for p in tmp_path.iterdir())
+    # An empty time cell, a time that goes back, under a model with a lag (the time
+    # matters): the line and column, as the readers say (was "row 4999, column 0" and
+    # "at sample 9999").
+    session = accelcore.load_session(sim.path)
+    lagged = {a: (*base_terms(a), Term("offset", "lag(300):dT^1", effect="lag")) for a in "xyz"}
+    stateful = tmp_path / "stateful.json"
+    accelcore.calibrate(session, terms=lagged, window_c=None).save(stateful)
+    for time_cell, said in (
+        ("", "not a finite number"),
+        ("0.05", "time is not strictly increasing"),
+    ):
+        bad = rows[:120]
+        bad[100] = time_cell + "," + bad[100].split(",", 1)[1]
+        log = tmp_path / "bad_time.csv"
+        log.write_text("\n".join([*bad[:51], "", *bad[51:]]) + "\n")  # a blank line too
+        status, _, err = run_main("compensate", stateful, log, "-o", tmp_path / "t.csv")
+        assert status == 1 and f"{log}:102:1: column 'time_s': {said}" in err, err
     # A Parquet time column of timestamps: was a traceback (cannot cast to float64).
     frame = pd.read_csv(plain)
     frame["time_s"] = pd.to_datetime(frame["time_s"], unit="s")

@@ -31,7 +31,13 @@ from accelcore.apps.progress import Progress
 from accelcore.constants import DEFAULT_COLUMNS as _DEFAULT_COLUMNS
 from accelcore.constants import DELIMITERS as _DELIMITERS
 from accelcore.constants import TIME_UNITS as _TIME_UNITS
-from accelcore.errors import AccelcoreError, ParseError, TemperatureRangeWarning
+from accelcore.errors import (
+    AccelcoreError,
+    NonFiniteError,
+    ParseError,
+    TemperatureRangeWarning,
+    TimeOrderError,
+)
 from accelcore.files import atomic_open, check_input_file
 from accelcore.input.format import SessionFormat
 from accelcore.input.headers import check_unique_names, first_line_fields
@@ -325,6 +331,8 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
                 n_out_of_range += n_out
                 n_nan += int(np.count_nonzero(~np.isfinite(g).all(axis=1)))
         except ValueError as exc:
+            if isinstance(exc, (TimeOrderError, NonFiniteError)) and not flight:
+                raise _at_row(exc, source, delimiter, names) from exc
             if isinstance(exc, AccelcoreError) or flight:
                 raise
             raise _bad_cell(source, _DELIMITERS[delimiter], needed) or CliDataError(
@@ -375,6 +383,36 @@ def _check_rate(
             )
     yield first
     yield from chunks
+
+
+def _at_row(
+    exc: TimeOrderError | NonFiniteError, source: Path, delimiter: str, names: Mapping[str, str]
+) -> CliDataError:
+    """Say where in the log the compensator's row is: line and column, or Parquet row.
+
+    The compensator counts rows of the whole stream from 0 (``row`` of a non-finite time
+    or temperature, its ``column`` 0 or 1; ``index`` of a time that goes back).
+    """
+    if isinstance(exc, TimeOrderError):
+        k, role = int(exc.index), "time"
+        what = f"time is not strictly increasing: {exc.previous_s!r} s then {exc.time_s!r} s"
+    else:
+        k, role = int(exc.row), ("time", "temperature")[min(int(exc.column), 1)]
+        what = "not a finite number (empty, nan or inf)"
+    name = names[role]
+    if source.suffix.lower() == ".parquet":
+        return CliDataError(f"{source}: row {k + 1}, column {name!r}: {what}")
+    separator = _DELIMITERS[delimiter]
+    with source.open(newline="", encoding="utf-8", errors="replace") as fh:
+        header = [h.strip() for h in next(csv.reader(fh, delimiter=separator), [])]
+        column = header.index(name) + 1 if name in header else 0
+        seen = -1
+        for line, text in enumerate(fh, start=2):
+            if text.strip():  # pandas skips blank lines: count the rows it read
+                seen += 1
+                if seen == k:
+                    return CliDataError(f"{source}:{line}:{column}: column {name!r}: {what}")
+    return CliDataError(f"{source}: row {k + 1} of data, column {name!r}: {what}")
 
 
 def _bad_cell(source: Path, delimiter: str, needed: Sequence[str]) -> ParseError | None:
