@@ -8,6 +8,7 @@ guess with the original and the calibrations of both.
 from __future__ import annotations
 
 import io
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -37,11 +38,17 @@ def original(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return sim.path
 
 
-def _copy_without_toml(src: Path, dst: Path, rename: dict[str, str] | None = None) -> Path:
+def _copy_without_toml(
+    src: Path,
+    dst: Path,
+    rename: dict[str, str] | None = None,
+    edit: Callable[[str], str] | None = None,
+) -> Path:
+    """Copy the logs of ``src`` into ``dst``, renamed and their text edited as asked."""
     dst.mkdir()
     for f in src.glob("*.csv"):
         name = (rename or {}).get(f.name, f.name)
-        (dst / name).write_bytes(f.read_bytes())
+        (dst / name).write_text(f.read_text() if edit is None else edit(f.read_text()))
     return dst
 
 
@@ -190,10 +197,13 @@ def test_logs_without_temperature_give_a_session_at_one_temperature(
     original: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """imucal's six positions log no temperature: init says so and writes temperature = ""."""
-    folder = tmp_path / "s"
-    folder.mkdir()
-    for f in original.glob("*.csv"):
-        pd.read_csv(f).drop(columns=["temp_c"]).to_csv(folder / f.name, index=False)
+    folder = _copy_without_toml(
+        original,
+        tmp_path / "s",
+        edit=lambda text: (
+            pd.read_csv(io.StringIO(text)).drop(columns=["temp_c"]).to_csv(index=False)
+        ),
+    )
     code, out, err = _run(["init", str(folder)], capsys)
     assert code == 0, err
     assert 'no temperature column: temperature = ""' in out
@@ -209,10 +219,9 @@ def test_a_preamble_above_the_header_is_skipped_as_the_reader_skips_it(
     original: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A logger's settings lines above the header: found, and the session reads."""
-    folder = tmp_path / "s"
-    folder.mkdir()
-    for f in original.glob("*.csv"):
-        (folder / f.name).write_text("Fs,20\nLogging Type,1\n\n" + f.read_text())
+    folder = _copy_without_toml(
+        original, tmp_path / "s", edit=lambda text: "Fs,20\nLogging Type,1\n\n" + text
+    )
     code, out, err = _run(["init", str(folder)], capsys)
     assert code == 0, err
     assert "columns: time=time_s, temperature=temp_c, x=x, y=y, z=z" in out

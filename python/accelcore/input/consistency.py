@@ -35,7 +35,13 @@ from accelcore.errors import DataQualityWarning, SessionFormatError
 from accelcore.input.medians import nanmedian_columns
 from accelcore.input.run import Run
 
-__all__ = ["LABEL_TOLERANCE_G", "SCALE_TOLERANCE", "check_labels", "check_rate"]
+__all__ = [
+    "LABEL_TOLERANCE_G",
+    "RATE_SLACK",
+    "SCALE_TOLERANCE",
+    "check_labels",
+    "check_rate",
+]
 
 #: Largest distance, in g, of a run's median output from the line through all
 #: runs. A mislabelled run is off by 1 g or more; offset drift over a sweep,
@@ -47,8 +53,9 @@ LABEL_TOLERANCE_G = 0.3
 SCALE_TOLERANCE = 3.0
 
 #: A block holding more than this many times the decimation factor of raw
-#: samples means the time stamps are denser than ``rate_hz`` says.
-_RATE_SLACK = 1.5
+#: samples means the time stamps are denser than ``rate_hz`` says (and ``compensate
+#: --session`` allows a log's time step this far from ``1 / rate_hz``).
+RATE_SLACK = 1.5
 
 
 def check_rate(runs: Sequence[Run], rate_hz: float, factor: int, where: str) -> None:
@@ -70,10 +77,10 @@ def check_rate(runs: Sequence[Run], rate_hz: float, factor: int, where: str) -> 
         A run's median block holds more than 1.5 x ``factor`` samples.
     """
     for run in runs:
-        if not len(run) or run.count.max() <= _RATE_SLACK * factor:
+        if not len(run) or run.count.max() <= RATE_SLACK * factor:
             continue  # no block holds too many, so neither does the median one
         typical = float(np.median(run.count))
-        if typical > _RATE_SLACK * factor:
+        if typical > RATE_SLACK * factor:
             seen = run.stats.mean_rate_hz
             hint = f"; its time stamps say about {seen:.6g} Hz" if np.isfinite(seen) else ""
             raise SessionFormatError(

@@ -39,6 +39,7 @@ from accelcore.errors import (
     TimeOrderError,
 )
 from accelcore.files import atomic_open, check_input_file
+from accelcore.input.consistency import RATE_SLACK
 from accelcore.input.format import SessionFormat
 from accelcore.input.headers import check_unique_names, first_line_fields
 from accelcore.input.readers.common import GuardedLog
@@ -351,10 +352,6 @@ def cmd_compensate(args: argparse.Namespace, out: TextIO) -> int:
             file=sys.stderr,
         )
     return 0
-
-
-#: How far a log's median time step may be from the session's ``1 / rate_hz`` (a ratio).
-RATE_SLACK = 1.5
 
 
 def _check_rate(

@@ -149,24 +149,16 @@ def flight_session(
         # gridded samples in one block and leave the next empty: compensate, which
         # asks for every sample, wrote averages at times the log does not hold.
         runs = [_every_sample(list(chunks()), layout, label, rate, settle)]
-        return Session(
-            runs=tuple(runs),
-            units="m/s2",
+    else:
+        runs = _segment(
+            chunks(),
+            layout,
+            orientation=label,
+            factor=factor,
             rate_hz=rate,
-            sensor=sensor,
-            serial=serial,
-            path=None,
-            decimation_factor=1,
+            min_count=min_count,
+            settle_s=settle,
         )
-    runs = _segment(
-        chunks(),
-        layout,
-        orientation=label,
-        factor=factor,
-        rate_hz=rate,
-        min_count=min_count,
-        settle_s=settle,
-    )
     return Session(
         runs=tuple(runs),
         units="m/s2",
