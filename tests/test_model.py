@@ -173,3 +173,17 @@ def test_kept_hashes_do_not_travel_with_pickles() -> None:
     ).stdout
     assert out.decode().split() == ["1", "1"]
     assert Basis.parse("hinge(2.5):extra:supply_v") == term.basis
+
+
+def test_a_step_and_its_until_split_one_run_in_two() -> None:
+    """``step(R@t0)`` is 1 from t0 on in run R, ``until(R@t0)`` 1 before it; both 0 elsewhere."""
+    after, before = Basis.parse("step(OX+@900)"), Basis.parse("until(OX+@900)")
+    assert (after.name, before.name) == ("step(OX+@900)", "until(OX+@900)")
+    assert after != before and Basis.parse(before.name) == before
+    t = np.arange(0.0, 1800.0, 0.5)
+    temp = np.full(t.size, 25.0)
+    run = Features(temp, t, {}, t_ref_c=25.0, run="OX+")
+    other = Features(temp, t, {}, t_ref_c=25.0, run="OX-")
+    np.testing.assert_array_equal(after.evaluate(run) + before.evaluate(run), np.ones(t.size))
+    np.testing.assert_array_equal(before.evaluate(run), (t < 900.0).astype(float))
+    assert not before.evaluate(other).any() and not after.evaluate(other).any()

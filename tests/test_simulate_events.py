@@ -104,6 +104,19 @@ def test_output_step_starts_at_its_time_in_its_run_only() -> None:
         np.testing.assert_array_equal(s.runs[1].columns[c], plain.runs[1].columns[c])
 
 
+def test_output_step_before_holds_until_its_time_only() -> None:
+    at_s = 200.0
+    step = (-6.0, 5.0, -8.0)
+    s, plain = sim([OutputStep("OX+", at_s, step, before=True)]), sim()
+    d = diff_mg(s, plain)
+    t = s.runs[0].columns["time_s"]
+    before, after = t < at_s - 1e-9, t >= at_s
+    assert np.all(d[after] == 0.0)
+    # Before the step each sample is off by the step, to within one ADC code.
+    quantum_mg = 1000.0 * s.quantum / np.abs(s.truth.sensitivity_per_g)
+    assert np.all(np.abs(d[before] - step) <= quantum_mg + 1e-9)
+
+
 def test_warm_up_decays_with_its_time_constant_in_every_run() -> None:
     amp, tau = (5.0, -2.0, 8.0), 60.0
     s, plain = sim([WarmUp(amp, tau)]), sim()

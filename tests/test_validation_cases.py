@@ -9,8 +9,11 @@ runs instead of 1 h.
 from __future__ import annotations
 
 from types import ModuleType
+from typing import Any
 
 import pytest
+
+from accelcore.diagnosis import diagnose
 
 HOURS = 0.5
 
@@ -68,3 +71,30 @@ def test_a_step_at_one_temperature_is_found_by_the_generic_terms(bench: ModuleTy
     out = bench.run_case(case(bench, "temperature step at 38 °C (outside catalogue)"), 1, HOURS)
     assert "offset vs temperature_c" in out.added, out.added
     assert out.diagnosed_mg * 2.0 <= out.base_mg, (out.added, out.base_mg, out.diagnosed_mg)
+
+
+def test_an_offset_gone_mid_run_leaves_the_part_after_it(bench: ModuleType) -> None:
+    """A run that starts off by a few mg and loses it mid-run (a shift annealed out):
+    the step is held as the offset *before* it (``until(OX+@900)``), the side the other
+    runs disagree with. Tied the other way, the run's clean half was freed and its
+    shifted half, a level of one run of the ± pair, passed as a second-order gain of x,
+    carried into the calibration: 0.89 -> 1.61 mg on the validation session."""
+    name = "offset gone mid-run (OX+, -6/5/-8 mg until mid-run)"
+    c: Any = case(bench, name)
+    out = bench.run_case(c, 1, HOURS)
+    assert out.added == ("event: step in OX+ at 900 s",), out.added
+    # The ideal is the base model fitted on the same session simulated without the
+    # event (same seed, same noise); the event's term takes the shifted half of one run
+    # out of the fit, which moves the fitted offsets by the noise of half a run's level
+    # (0.6 mg / sqrt(1800) ~ 0.01 mg): 2 % of the 0.6 mg error is well above it.
+    assert out.diagnosed_mg <= 1.02 * out.ideal_mg, (out.diagnosed_mg, out.ideal_mg)
+    assert out.base_mg >= 1.4 * out.ideal_mg, "the event must matter"
+    session = bench.simulate_session(c.events, 1, HOURS, c.calibration_profile)
+    d = diagnose(session)
+    params = {e["parameter"] for e in d.session_events}
+    assert params == {"offset·until(OX+@900)"}, params
+    # The offset before the step, per axis, within five of its standard errors (the
+    # fit's, widened for the residual's correlation): -6, 5, -8 mg as simulated.
+    for e in d.session_events:
+        true_mg = bench.GONE_MG["xyz".index(e["axis"])]
+        assert abs(e["value"] - true_mg) < 5.0 * e["se"], e

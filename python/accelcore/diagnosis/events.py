@@ -12,7 +12,9 @@ into the calibration (:func:`accelcore.diagnosis.space.is_event`).
   samples, in units of its white-noise standard error and pooled over the three
   axes (chi-square, 3 degrees of freedom); a smooth leftover trend gives no jump.
   The largest is a step when its p-value, Bonferroni-corrected over every
-  position of every run, is below ``alpha``.
+  position of every run, is below ``alpha``. Its term frees the side of it the rest
+  of the session disagrees with: the level after it (a knock, ``step(RUN@t0)``) or
+  the level before it (an offset that went away, ``until(RUN@t0)``).
 * **Run level** (a step at the run's start: a tilted gravity direction, seen on
   the axes that should read 0 g in that run). With the full 3x3 gain a tilt of
   one run of a ± pair is, in the least-squares sense, half misalignment and half
@@ -145,7 +147,7 @@ def find_run_events(
             continue
         t0 = float(f"{eng.elapsed_s[idx[k]]:.4g}")
         effect = f"{EVENT_PREFIX}step in {label} at {t0:g} s"
-        step = Term("offset", RunStep(label, t0), effect=effect)
+        step = _part_side(eng, specs, RunStep(label, t0), effect)
         if _step_holds(eng, specs, step, n_windows, alpha):
             steps.append(step)
     if len(runs) >= 2 and 2 * len(steps) >= len(runs):
@@ -208,7 +210,7 @@ def level_runs(specs: Mapping[str, Spec]) -> list[str]:
             t.basis.run
             for spec in specs.values()
             for t in spec.events
-            if isinstance(t.basis, RunStep) and t.basis.at_s == 0.0
+            if isinstance(t.basis, RunStep) and t.basis.at_s == 0.0 and not t.basis.before
         }
     )
 
@@ -253,6 +255,35 @@ def levels_on_every_axis(
         if eng.cv(a, trial.terms(a)).sse_in < eng.cv(a, spec.terms(a)).sse_in:
             specs[a], found = trial, True
     return specs if found else None
+
+
+def _part_side(eng: Engine, specs: Mapping[str, Spec], after: RunStep, effect: str) -> Term:
+    """Return the step as the offset of the side of it that is not the part's.
+
+    A step in one run splits it in two levels; the term holds one of them free, and
+    the other is the part's, tied to the models by the rest of the session. A part
+    knocked mid-run is itself before the step (``step(RUN@t0)``); an offset that went
+    away (a shift annealed out by the first hot soak) is the part after it
+    (``until(RUN@t0)``). The side the session agrees with is the part's: of the two
+    terms, the one whose fit beside the models leaves the smaller in-sample error,
+    summed over the axes each relative to its error now. (Tied the wrong way, the
+    part's side is freed and the other one pulls the models: an offset held by one run
+    of a ± pair passes as a second-order gain.)
+    """
+    terms = [
+        Term("offset", after, effect=effect),
+        Term("offset", replace(after, before=True), effect=effect),
+    ]
+    now = {a: eng.cv(a, spec.terms(a)).sse_in for a, spec in specs.items()}
+
+    def left(term: Term) -> float:
+        total = 0.0
+        for a, spec in specs.items():
+            trial = replace(spec, events=(*spec.events, term))
+            total += eng.cv(a, trial.terms(a)).sse_in / now[a] if now[a] > 0 else 0.0
+        return total
+
+    return min(terms, key=left)
 
 
 def _step_holds(

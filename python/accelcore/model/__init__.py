@@ -29,7 +29,8 @@ code then asks the value what it is instead of splitting strings:
     power-on; a session event, never carried into a calibration);
 ``step(RUN@t0)`` (:class:`RunStep`)
     1 in run ``RUN`` from ``t0`` seconds into it on, else 0 (the part knocked
-    mid-run; a session event);
+    mid-run; a session event); ``until(RUN@t0)``, 1 before ``t0`` instead (an
+    offset that went away mid-run);
 ``g_b^2`` (:class:`SquaredGravity`)
     the square of the specific force on axis ``b``, g² (an offset in ``g_b^2`` is the
     second-order nonlinearity of the output in the force, IEEE Std 1293's ``K2``

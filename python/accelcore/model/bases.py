@@ -171,7 +171,7 @@ class Basis(ABC):
             return Decay(float(m.group(1)))
         m = _STEP.match(text)
         if m:
-            return RunStep(m.group(1), float(m.group(2)))
+            return RunStep(m.group(2), float(m.group(3)), before=m.group(1) == "until")
         m = _HINGE.match(text)
         if m:
             return Hinge(float(m.group(1)), Basis.parse(m.group(2)))
@@ -187,7 +187,7 @@ _POLY = re.compile(r"^dT\^([1-9])$")
 _LAG = re.compile(r"^lag\(([0-9.eE+-]+)\):dT\^([1-9])$")
 _HINGE = re.compile(r"^hinge\(([0-9.eE+-]+)\):(.+)$")
 _DECAY = re.compile(r"^decay\(([0-9.eE+-]+)\)$")
-_STEP = re.compile(r"^step\((.+)@([0-9.eE+-]+)\)$")
+_STEP = re.compile(r"^(step|until)\((.+)@([0-9.eE+-]+)\)$")
 _SQUARE = re.compile(r"^g_([xyz])\^2$")
 
 
@@ -394,10 +394,15 @@ class Decay(Basis):
 
 @dataclass(frozen=True)
 class RunStep(Basis):
-    """``step(RUN@t0)``: 1 in run ``RUN`` from ``t0`` s after its start on, else 0."""
+    """``step(RUN@t0)``: 1 in run ``RUN`` from ``t0`` s after its start on, else 0.
+
+    With ``before``, ``until(RUN@t0)``: 1 in run ``RUN`` before ``t0`` s, else 0 (the
+    same step, with the level after it the part's: an offset that went away).
+    """
 
     run: str
     at_s: float
+    before: bool = False
 
     stateful: ClassVar[bool] = True
 
@@ -408,14 +413,15 @@ class RunStep(Basis):
 
     @property
     def name(self) -> str:  # noqa: D102
-        return f"step({self.run}@{self.at_s:.6g})"
+        return f"{'until' if self.before else 'step'}({self.run}@{self.at_s:.6g})"
 
     def evaluate(  # noqa: D102
         self, features: Features, references: Mapping[str, float] | None = None
     ) -> FloatArray:
         if features.run != self.run:
             return np.zeros(len(features))
-        return (features._need_time(self.name) >= self.at_s).astype(np.float64)
+        after = features._need_time(self.name) >= self.at_s
+        return (~after if self.before else after).astype(np.float64)
 
 
 @dataclass(frozen=True)

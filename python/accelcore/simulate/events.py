@@ -211,11 +211,16 @@ class OutputStep:
         Time of the step, s after the run's first sample.
     step_mg : float or 3 floats
         Size per axis, mg (0 leaves an axis alone).
+    before : bool, default False
+        The offset holds before ``at_s`` instead, and is gone from it on (a shift
+        annealed out, a disturbance that ended): the part after the step is the
+        clean one.
     """
 
     run: str
     at_s: float
     step_mg: float | tuple[float, float, float] = (0.0, 0.0, 5.0)
+    before: bool = False
 
     def __post_init__(self) -> None:
         _check_run(self.run)
@@ -237,8 +242,9 @@ class OutputStep:
         """Add the step to ``state.output`` when the run is the one named."""
         if not _matches(self.run, state):
             return
-        after = ((state.time_s - state.time_s[0]) >= self.at_s).astype(np.float64)[:, None]
-        state.output = state.output + _mg_to_units(state, after * _vec3(self.step_mg, "step_mg"))
+        after = (state.time_s - state.time_s[0]) >= self.at_s
+        held = (~after if self.before else after).astype(np.float64)[:, None]
+        state.output = state.output + _mg_to_units(state, held * _vec3(self.step_mg, "step_mg"))
 
 
 @dataclass(frozen=True)
