@@ -36,6 +36,7 @@ import datetime as dt
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Final, Literal
 
 import numpy as np
@@ -96,6 +97,8 @@ Expect = Literal["cut 2x", "cut 1.5x", "rise <= 5%"]
 # (0.6 mg rms) on the validation session, it is scaled so that a calibration that
 # knows the truth (the "ideal" column) reaches the case's rule with a margin.
 LAG_TAU_S: Final = 90.0
+#: A die that heats through 50 s and cools through 250 s (blind round 6's heat_cool_lag).
+TWO_WAY_LAG_S: Final = (50.0, 250.0)
 SENS_CURVATURE_PCT_PER_C2: Final = 1e-3
 DRIFT_MG_PER_H: Final = (7.0, -7.0, 10.0)
 NONLINEARITY_MG_PER_G2: Final = (4.0, -3.0, 5.0)
@@ -166,12 +169,12 @@ def _with(axis: str, *extra: Term) -> tuple[Term, ...]:
     return tuple(out)
 
 
-def _lagged(axis: str) -> tuple[Term, ...]:
+def _lagged(axis: str, lag: str = f"lag({LAG_TAU_S:g})") -> tuple[Term, ...]:
     """The base model with every temperature power read through the true lag."""
     out = []
     for t in base_terms(axis):
         name = str(t.basis)
-        basis = f"lag({LAG_TAU_S:g}):{name}" if name.startswith("dT^") else name
+        basis = f"{lag}:{name}" if name.startswith("dT^") else name
         out.append(Term(t.kind, basis, source=t.source))
     return tuple(out)
 
@@ -191,6 +194,11 @@ def _cases(run_s: float) -> tuple[ValidationCase, ...]:
             ideal=lambda a: _with(a, Term("gain", "dT^2", source=a)),
         ),
         ValidationCase("thermal lag", (se.ThermalLag(LAG_TAU_S),), ideal=_lagged),
+        ValidationCase(
+            f"thermal lag, {TWO_WAY_LAG_S[0]:g} s heating / {TWO_WAY_LAG_S[1]:g} s cooling",
+            (se.ThermalLag(*TWO_WAY_LAG_S),),
+            ideal=partial(_lagged, lag=f"lag({TWO_WAY_LAG_S[0]:g},{TWO_WAY_LAG_S[1]:g})"),
+        ),
         ValidationCase(
             "misalignment",
             (se.Misalignment(),),

@@ -324,6 +324,7 @@ def test_compensate_is_independent_of_chunking_with_stateful_terms(
             Term("offset", "lag(300):dT^1", effect="lag"),
             Term("offset", "dTdt", effect="rate"),
             Term("offset", "elapsed_h", effect="drift"),
+            Term("offset", "lag(50,250):dT^1", effect="lag"),
         )
         for a in "xyz"
     }
@@ -332,7 +333,7 @@ def test_compensate_is_independent_of_chunking_with_stateful_terms(
     axes = {}
     for a, m in cal.axes.items():
         coefficients = m.coefficients.copy()
-        coefficients[4:] = [0.01, 0.02, 0.03]
+        coefficients[4:] = [0.01, 0.02, 0.03, -0.01]
         axes[a] = dataclasses.replace(m, coefficients=coefficients)
     cal = dataclasses.replace(cal, axes=axes)
     cal_path = tmp_path / "stateful.json"

@@ -187,3 +187,21 @@ def test_a_step_and_its_until_split_one_run_in_two() -> None:
     np.testing.assert_array_equal(after.evaluate(run) + before.evaluate(run), np.ones(t.size))
     np.testing.assert_array_equal(before.evaluate(run), (t < 900.0).astype(float))
     assert not before.evaluate(other).any() and not after.evaluate(other).any()
+
+
+def test_a_two_way_lag_names_both_time_constants() -> None:
+    """``lag(heating,cooling):dT^k``; the same both ways is the plain lag."""
+    two = Basis.parse("lag(50,250):dT^2")
+    assert two == LaggedTemperaturePower(50.0, 2, 250.0)
+    assert (two.name, two.lag_s, two.lag_key) == ("lag(50,250):dT^2", 50.0, (50.0, 250.0))
+    assert two.without_lag() == TemperaturePower(2)
+    same = LaggedTemperaturePower(90.0, 1, 90.0)
+    assert same == Basis.parse("lag(90):dT^1") and same.lag_key == (90.0,)
+    with pytest.raises(ParameterError):
+        LaggedTemperaturePower(50.0, 1, -1.0)
+    # Heating up a ramp it trails by 50 s of it; cooling down one, by 250 s.
+    t = np.arange(0.0, 8000.0, 0.5)
+    temp = np.where(t < 4000.0, 25.0 + 0.01 * t, 65.0 - 0.01 * (t - 4000.0))
+    lagged = two.evaluate(Features(temp, t, {}, t_ref_c=25.0)) ** 0.5
+    assert abs((temp[7999] - 25.0) - lagged[7999] - 0.5) < 0.01
+    assert abs(lagged[-1] - (temp[-1] - 25.0) - 2.5) < 0.01

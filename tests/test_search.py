@@ -200,6 +200,27 @@ def test_the_reference_lag_is_the_cores_filter() -> None:
     np.testing.assert_array_equal(reference.first_order_lag(t, x, 7.0), first_order_lag(t, x, 7.0))
 
 
+@given(
+    steps=st.lists(st.sampled_from([0.5, 0.5, 0.5, 0.7, 2.0, 0.0]), min_size=1, max_size=80),
+    wiggle=st.floats(0.1, 10.0),
+    tau_heat=st.floats(0.5, 500.0),
+    tau_cool=st.floats(0.5, 500.0),
+)
+def test_the_reference_direction_lag_is_the_cores(
+    steps: list[float], wiggle: float, tau_heat: float, tau_cool: float
+) -> None:
+    """Heating and cooling time constants: the core's filter and the reference's, the
+    same floats (both take tau by the sign of input minus output, and -expm1)."""
+    from accelcore._accelcore import first_order_lag
+
+    t = np.cumsum(np.r_[0.0, steps])
+    x = 20.0 + wiggle * np.sin(t / 3.0) + 0.05 * t
+    np.testing.assert_array_equal(
+        reference.first_order_lag(t, x, tau_heat, tau_cool),
+        first_order_lag(t, x, tau_heat, tau_cool_s=tau_cool),
+    )
+
+
 def test_bad_inputs_are_typed_errors() -> None:
     data, model, _ = _problem(7, 1)
     core, _ = _both(data)

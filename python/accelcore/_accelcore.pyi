@@ -854,12 +854,19 @@ def compensate(
     """
 
 def first_order_lag(
-    time_s: ArrayLike, temperature_c: ArrayLike, tau_s: float, /, initial: float | None = None
+    time_s: ArrayLike,
+    temperature_c: ArrayLike,
+    tau_s: float,
+    /,
+    initial: float | None = None,
+    tau_cool_s: float | None = None,
 ) -> NDArray[np.float64]:
     """First-order lag of a temperature series with time constant ``tau_s`` (s).
 
     ``y[i] = y[i-1] + (1 - exp(-(t[i]-t[i-1])/tau)) (x[i] - y[i-1])``, ``y[0] = initial``
     or ``x[0]``: what a die trailing the logged probe sees. ``tau_s = 0`` returns the input.
+    With ``tau_cool_s``, ``tau`` is ``tau_s`` at a step whose input is above the output
+    (the die heating) and ``tau_cool_s`` at any other (cooling); equal, the plain lag.
     """
 
 def fingerprint(values: ArrayLike, counts: ArrayLike, /) -> int:

@@ -274,7 +274,10 @@ class Engine:
             if isinstance(key, LaggedTemperaturePower) and key.order == 1:
                 # One filter pass per record, as a part's features would run it.
                 lagged = np.concatenate(
-                    [first_order_lag(t, temp, key.tau_s) for t, temp in self._wholes]
+                    [
+                        first_order_lag(t, temp, key.tau_s, tau_cool_s=key.cool_tau_s)
+                        for t, temp in self._wholes
+                    ]
                 )
                 self._basis_cache[key] = lagged[self._gather] - self.t_ref_c
             elif key.order > 1:
@@ -295,11 +298,14 @@ class Engine:
             )
         return self._basis_cache[key]
 
-    def drop_lag_cache(self, keep: Sequence[float]) -> None:
-        """Forget the cached lagged bases except those of the time constants ``keep``."""
-        keep_s = {f"{k:.6g}" for k in keep}
+    def drop_lag_cache(self, keep: Sequence[float | tuple[float, float]]) -> None:
+        """Forget the cached lagged bases except those of the time constants ``keep``.
+
+        Each a time constant or a (heating, cooling) pair.
+        """
+        keep_s = {_lag_text(k) for k in keep}
         for key in list(self._basis_cache):
-            if key.lag_s is not None and f"{key.lag_s:.6g}" not in keep_s:
+            if key.lag_key is not None and _lag_text(key.lag_key) not in keep_s:
                 del self._basis_cache[key]
 
     def column(self, term: Term) -> FloatArray:
@@ -328,25 +334,27 @@ class Engine:
     # -------------------------------------------------------------- fitting
     def _catalogue(
         self,
-        lag: tuple[str, float] | None,
+        lag: _CatalogueName,
         extra_keys: Sequence[_Key] = (),
         only: bool = False,
     ) -> tuple[list[_Key], FloatArray] | None:
         """Return the columns of a catalogue and their window design (None: not finite).
 
         ``lag`` None: the catalogue without a lag. ``("die", tau)``: every temperature
-        basis lagged by ``tau``. ``("rate", tau)``: the one without a lag plus the rate
-        term ``lag(tau):dT^1``. ``extra_keys`` are further columns; ``only``: they are
-        the whole catalogue.
+        basis lagged by ``tau`` (``("die", (heating, cooling))``: by a lag of each
+        direction, :class:`~accelcore.model.LaggedTemperaturePower`). ``("rate", tau)``:
+        the one without a lag plus the rate term ``lag(tau):dT^1``. ``extra_keys`` are
+        further columns; ``only``: they are the whole catalogue.
         """
         plain: list[Basis] = [TemperaturePower(k) for k in range(1, self.max_order + 1)]
         temps: list[Basis] = plain
         if lag is not None and lag[0] == "die":
-            temps = [LaggedTemperaturePower(lag[1], k) for k in range(1, self.max_order + 1)]
+            tau, cool = _lag_pair(lag[1])
+            temps = [LaggedTemperaturePower(tau, k, cool) for k in range(1, self.max_order + 1)]
         offsets: list[Basis] = [Constant(), *temps, Elapsed()]
         offsets += [Extra(name) for name in self.varying_extras]
         if lag is not None and lag[0] == "rate":
-            offsets.append(LaggedTemperaturePower(lag[1], 1))
+            offsets.append(LaggedTemperaturePower(_lag_pair(lag[1])[0], 1))
         gains: list[Basis] = [Constant(), *temps]
         keys: list[_Key] = [(b, None) for b in offsets] + [(b, a) for a in AXES for b in gains]
         keys = list(extra_keys) if only else keys + [k for k in extra_keys if k not in keys]
@@ -436,14 +444,15 @@ class Engine:
         """Window stride of :meth:`cv_coarse`: about :data:`COARSE_ROWS` windows, at least all."""
         return max(1, self.n_windows // COARSE_ROWS)
 
-    def keep_lags(self, die: Sequence[float], rate: Sequence[float]) -> None:
+    def keep_lags(self, die: Sequence[float | tuple[float, float]], rate: Sequence[float]) -> None:
         """Keep a catalogue (rows pushed once) for each lag the models now hold; drop the rest.
 
-        ``die`` and ``rate`` are the time constants of the models' die lags and rate
-        terms. Lagged bases of other time constants are forgotten too.
+        ``die`` and ``rate`` are the time constants of the models' die lags (each one,
+        or a (heating, cooling) pair) and rate terms. Lagged bases of other time
+        constants are forgotten too.
         """
-        wanted: set[tuple[str, float] | None] = {None}
-        wanted |= {("die", float(t)) for t in die} | {("rate", float(t)) for t in rate}
+        wanted: set[_CatalogueName] = {None}
+        wanted |= {("die", t) for t in die} | {("rate", float(t)) for t in rate}
         for lag in list(self._wide):
             if lag not in wanted and (lag is None or lag[0] != "generic"):
                 del self._wide[lag]
@@ -580,8 +589,9 @@ class Engine:
 #: A design column: a basis, alone (offset, ``None``) or times an axis' gravity (gain).
 _Key = tuple[Basis, str | None]
 
-#: A catalogue: None (no lag), ``("die"|"rate", tau)`` or ``("generic", name)``.
-_CatalogueName = tuple[str, float | str] | None
+#: A catalogue: None (no lag), ``("die"|"rate", tau)``, ``("die", (heating, cooling))``
+#: or ``("generic", name)``.
+_CatalogueName = tuple[str, float | tuple[float, float] | str] | None
 
 #: Rows a coarse search trial (:meth:`Engine.cv_coarse`) aims at.
 COARSE_ROWS = 4_000
@@ -598,3 +608,16 @@ def _loose_key(term: Term) -> tuple[str, Basis, str | None]:
 def _key(term: Term) -> _Key:
     """Return the design column of a term."""
     return (term.basis, (term.source or "x") if term.kind == "gain" else None)
+
+
+def _lag_pair(lag: float | tuple[float, float] | str) -> tuple[float, float | None]:
+    """Return a catalogue's lag as (time constant, cooling one or None)."""
+    if isinstance(lag, tuple):
+        return float(lag[0]), float(lag[1])
+    return float(lag), None
+
+
+def _lag_text(lag: float | tuple[float, ...]) -> str:
+    """Return a lag's time constants as the 6 digits a basis keeps, for matching."""
+    taus = lag if isinstance(lag, tuple) else (lag,)
+    return ",".join(f"{t:.6g}" for t in taus)

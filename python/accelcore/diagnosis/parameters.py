@@ -34,7 +34,7 @@ from accelcore.result.calibration import AxisModel, nominal_sensitivity
 from .engine import Engine
 from .generic import observable_unit
 from .search import profile_se, tau_se, with_warm_up
-from .space import EVENT_PREFIX, Spec, is_event
+from .space import EVENT_PREFIX, TWO_WAY_LAG, Spec, is_event
 
 __all__ = ["added_parameters", "event_parameters", "fit_models", "variance_inflation"]
 
@@ -53,11 +53,25 @@ def added_parameters(
         s = eng.scale[a]
         # Standard errors as the fit gives them take the samples' errors as independent.
         widen = math.sqrt(variance_inflation(eng, a, specs[a]))
-        if family == "thermal_lag":
+        if family in ("thermal_lag", TWO_WAY_LAG):
             spec = specs[a]
             tau = spec.tau if spec.tau is not None else spec.rate_tau
             se_tau = tau_se(eng, a, spec) * widen
-            out.append({"axis": a, "name": "tau", "value": tau, "se": se_tau, "unit": "s"})
+            if spec.tau_cool is None:
+                out.append({"axis": a, "name": "tau", "value": tau, "se": se_tau, "unit": "s"})
+            else:
+                # A die lag of one time constant while heating, another while cooling.
+                se_cool = tau_se(eng, a, spec, cooling=True) * widen
+                out += [
+                    {"axis": a, "name": "tau heating", "value": tau, "se": se_tau, "unit": "s"},
+                    {
+                        "axis": a,
+                        "name": "tau cooling",
+                        "value": spec.tau_cool,
+                        "se": se_cool,
+                        "unit": "s",
+                    },
+                ]
             if spec.rate_tau is not None:
                 # offset c·(T_lag - T_ref) beside c1·(T - T_ref): c·(T_lag - T) ≈ -c·tau·dT/dt.
                 c, se = m.value("offset", LaggedTemperaturePower(spec.rate_tau, 1))

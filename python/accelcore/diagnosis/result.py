@@ -320,6 +320,7 @@ class Diagnosis:
         last = self.effects[-1] if self.effects else ""
         return {
             "thermal_lag": "dtemp_dt_c_per_min",
+            "two_way_lag": "dtemp_dt_c_per_min",
             "drift": "elapsed_s",
             "misalignment": "run_index",
             "nonlinearity": "run_index",

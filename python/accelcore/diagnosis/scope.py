@@ -26,7 +26,7 @@ __all__ = [
 #: state and temperature path unlike the other runs', so a lag fitted across the runs
 #: may only mirror the cut.
 QUALITY_EXPLAINS: Mapping[str, tuple[str, ...]] = {
-    "short": ("thermal_lag", "smooth:dtemp_dt_c_per_min", "smooth:elapsed_h")
+    "short": ("thermal_lag", "two_way_lag", "smooth:dtemp_dt_c_per_min", "smooth:elapsed_h")
 }
 
 

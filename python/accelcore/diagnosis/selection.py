@@ -58,7 +58,7 @@ from .scope import (
     without_findings,
 )
 from .search import variants
-from .space import FAMILIES, Spec, with_tau
+from .space import FAMILIES, TWO_WAY_LAG, Spec, with_lag_pair, with_tau
 from .stats import pooled_rms, wrms
 from .structure import (
     MIN_TEMPERATURE_SPAN_C,
@@ -72,6 +72,7 @@ __all__ = ["QUALITY_EXPLAINS", "diagnose"]
 
 #: Most times the selection starts again without families made redundant by later ones.
 MAX_RESTARTS = 2
+
 
 #: Arguments of :func:`diagnose` that are not options of the method.
 _NOT_OPTIONS = frozenset({"session", "calibration", "quality"})
@@ -149,10 +150,14 @@ class _Selection:
             for c in chosen:
                 self.specs[c.axis] = c.spec
                 self.cv_cur[c.axis] = c.cv
-            if best != "thermal_lag":
+            if best not in ("thermal_lag", TWO_WAY_LAG):
                 self._revisit_lags()
             self.eng.keep_lags(
-                [s.tau for s in self.specs.values() if s.tau is not None],
+                [
+                    s.tau if s.tau_cool is None else (s.tau, s.tau_cool)
+                    for s in self.specs.values()
+                    if s.tau is not None
+                ],
                 [s.rate_tau for s in self.specs.values() if s.rate_tau is not None],
             )
             axes = tuple(c.axis for c in chosen)
@@ -185,6 +190,34 @@ class _Selection:
             ]
         return []
 
+    def _tried_two_ways(self, axis: str, spec: Spec) -> list[Tried]:
+        """Try the axis' die lag with a time constant of its own each way (:data:`TWO_WAY_LAG`).
+
+        Only on an axis whose model holds a lag of one time constant (a die lag, or a
+        rate term, which it replaces: a rate term is the lag's share that a one-way die
+        lag misses, and it took the place of the two ways' lag), where the session both
+        heats and cools (each way has a leg: the other way's time constant is otherwise
+        not seen), and where the search parts the two (:func:`.search.search_two_way`,
+        from the one-way die lag's time constant).
+        """
+        if spec.tau_cool is not None or (spec.tau is None) == (spec.rate_tau is None):
+            return []
+        if not {"heating", "cooling"} <= set(self.eng.leg_kinds.values()):
+            return []
+        range_s = self._tau_range("thermal_lag")
+        bare = replace(spec, rate_tau=None)
+        start = spec.tau
+        if start is None:
+            start, _ = search.search_1d(self.eng, axis, partial(with_tau, bare, "die"), range_s)
+        heat, cool, cv = search.search_two_way(self.eng, axis, bare, range_s, start)
+        two = with_lag_pair(bare, heat, cool)
+        if two.tau_cool is None:
+            return []
+        label = f"heating {heat:.3g} s, cooling {cool:.3g} s"
+        if spec.rate_tau is not None:
+            label += " (in place of the rate term)"
+        return [(TWO_WAY_LAG, label, cv, two)]
+
     def _search_together(self, family: str) -> None:
         """Run the time-constant searches of ``family`` on every axis at once.
 
@@ -207,6 +240,8 @@ class _Selection:
                     continue  # slower than any warm-up the runs show: a drift's shape
                 tried.append((fam, f"{what}tau {tau:.3g} s", cv, make(tau)))
             return tried
+        if family == TWO_WAY_LAG:
+            return self._tried_two_ways(axis, spec)
         if family == "smooth":
             return self._tried_generic(axis, spec)
         return [
@@ -298,7 +333,7 @@ class _Selection:
     def _revisit_lags(self) -> None:
         """Search again the lag of every axis that has one (variant and tau), keep the better."""
         bare = {
-            a: replace(s, tau=None, rate_tau=None)
+            a: replace(s, tau=None, tau_cool=None, rate_tau=None)
             for a, s in self.specs.items()
             if s.tau is not None or s.rate_tau is not None
         }

@@ -34,7 +34,7 @@ MIN_TEMPERATURE_SPAN_C = 1.0
 MIN_WINDOWS_PER_BIN = 16
 
 #: Effect families driven by temperature.
-TEMPERATURE_FAMILIES = ("offset_curvature", "sensitivity_curvature", "thermal_lag")
+TEMPERATURE_FAMILIES = ("offset_curvature", "sensitivity_curvature", "thermal_lag", "two_way_lag")
 
 
 def temperature_span_c(eng: Engine) -> float:

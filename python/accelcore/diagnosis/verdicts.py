@@ -291,9 +291,9 @@ def _parameters(cands: Sequence[Candidate]) -> int:
     """
     n = 0
     for c in (c for c in cands if c.accepted):
-        lags = {t.basis.lag_s for t in c.cv.terms if t.basis.lag_s is not None}
-        lags -= {t.basis.lag_s for t in c.before.terms if t.basis.lag_s is not None}
-        n += len(c.cv.terms) - len(c.before.terms) + len(lags)
+        lags = {t.basis.lag_key for t in c.cv.terms if t.basis.lag_key is not None}
+        lags -= {t.basis.lag_key for t in c.before.terms if t.basis.lag_key is not None}
+        n += len(c.cv.terms) - len(c.before.terms) + sum(len(k) for k in lags)
     return n
 
 

@@ -138,6 +138,8 @@ class CutFeatures(Features):
     _whole: Features
     _keep: NDArray[np.bool_]
 
-    def lagged_temperature_c(self, tau_s: float) -> NDArray[np.float64]:
+    def lagged_temperature_c(
+        self, tau_s: float, cool_tau_s: float | None = None
+    ) -> NDArray[np.float64]:
         """Lagged temperature of the whole run (lag state unbroken), then cut."""
-        return self._whole.lagged_temperature_c(tau_s)[self._keep]
+        return self._whole.lagged_temperature_c(tau_s, cool_tau_s)[self._keep]

@@ -17,7 +17,9 @@ code then asks the value what it is instead of splitting strings:
     ``(T - t_ref_c)^k``, °C^k (curvature for k >= 2);
 ``lag(tau):dT^k`` (:class:`LaggedTemperaturePower`)
     the same with the temperature passed through a first-order lag of
-    ``tau`` seconds (the die trailing the logged probe);
+    ``tau`` seconds (the die trailing the logged probe); ``lag(h,c):dT^k``,
+    ``h`` seconds while the logged temperature is above the lagged one
+    (heating), ``c`` while it is below (cooling);
 ``dTdt`` (:class:`TemperatureRate`)
     rate of change of temperature, °C/min (causal, smoothed over 60 s);
 ``elapsed_h`` (:class:`Elapsed`)

@@ -58,7 +58,9 @@ class Features:
     time_s: FloatArray | None
     extras: Mapping[str, FloatArray]
     t_ref_c: float
-    _lag_cache: dict[float, FloatArray] = field(default_factory=dict, repr=False)
+    _lag_cache: dict[tuple[float, float | None], FloatArray] = field(
+        default_factory=dict, repr=False
+    )
     #: Label of the run (record) the samples come from, for session-event bases.
     run: str | None = None
     #: Specific force on the axes, g, shape (n, 3) or (3,), for bases of the force
@@ -73,12 +75,18 @@ class Features:
             raise ParameterError(f"the model term basis {basis!r} needs time_s")
         return self.time_s
 
-    def lagged_temperature_c(self, tau_s: float) -> FloatArray:
-        """Temperature through a first-order lag of ``tau_s`` seconds (cached)."""
-        if tau_s not in self._lag_cache:
+    def lagged_temperature_c(self, tau_s: float, cool_tau_s: float | None = None) -> FloatArray:
+        """Temperature through a first-order lag of ``tau_s`` seconds (cached).
+
+        With ``cool_tau_s``, ``tau_s`` while heating and ``cool_tau_s`` while cooling.
+        """
+        key = (tau_s, cool_tau_s)
+        if key not in self._lag_cache:
             time_s = self._need_time(f"lag({tau_s})")
-            self._lag_cache[tau_s] = first_order_lag(time_s, self.temperature_c, tau_s)
-        return self._lag_cache[tau_s]
+            self._lag_cache[key] = first_order_lag(
+                time_s, self.temperature_c, tau_s, tau_cool_s=cool_tau_s
+            )
+        return self._lag_cache[key]
 
 
 # ---------------------------------------------------------------------- bases
@@ -126,7 +134,15 @@ class Basis(ABC):
 
     @property
     def lag_s(self) -> float | None:
-        """Time constant of the temperature lag, s (None when the basis has none)."""
+        """Time constant of the temperature lag, s (None when the basis has none).
+
+        Of a lag whose time constant differs between heating and cooling, the heating one.
+        """
+        return None
+
+    @property
+    def lag_key(self) -> tuple[float, ...] | None:
+        """Every time constant of the temperature lag, s: ``(tau,)`` or ``(heating, cooling)``."""
         return None
 
     @property
@@ -161,7 +177,8 @@ class Basis(ABC):
             return TemperaturePower(int(m.group(1)))
         m = _LAG.match(text)
         if m:
-            return LaggedTemperaturePower(float(m.group(1)), int(m.group(2)))
+            cool = None if m.group(2) is None else float(m.group(2))
+            return LaggedTemperaturePower(float(m.group(1)), int(m.group(3)), cool)
         if text == "dTdt":
             return TemperatureRate()
         if text == "elapsed_h":
@@ -184,7 +201,7 @@ class Basis(ABC):
 
 
 _POLY = re.compile(r"^dT\^([1-9])$")
-_LAG = re.compile(r"^lag\(([0-9.eE+-]+)\):dT\^([1-9])$")
+_LAG = re.compile(r"^lag\(([0-9.eE+-]+)(?:,([0-9.eE+-]+))?\):dT\^([1-9])$")
 _HINGE = re.compile(r"^hinge\(([0-9.eE+-]+)\):(.+)$")
 _DECAY = re.compile(r"^decay\(([0-9.eE+-]+)\)$")
 _STEP = re.compile(r"^(step|until)\((.+)@([0-9.eE+-]+)\)$")
@@ -231,25 +248,40 @@ class TemperaturePower(Basis):
 
 @dataclass(frozen=True)
 class LaggedTemperaturePower(Basis):
-    """``lag(tau):dT^k``: ``dT^k`` of the temperature through a first-order lag of tau s."""
+    """``lag(tau):dT^k``: ``dT^k`` of the temperature through a first-order lag of tau s.
+
+    With ``cool_tau_s``, ``lag(tau,cool):dT^k``: the lag's time constant is ``tau_s``
+    while the logged temperature is above the lagged one (the die heating) and
+    ``cool_tau_s`` while it is below (cooling); equal to ``tau_s``, it is the plain lag.
+    """
 
     tau_s: float
     order: int
+    cool_tau_s: float | None = None
 
     stateful: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         # The basis is what its name says: tau to the 6 significant digits files keep,
         # so a model evaluates the same before and after a save and load.
-        if not (math.isfinite(self.tau_s) and self.tau_s > 0.0):
-            raise ParameterError(f"a lag time constant must be positive, s; got {self.tau_s}")
+        for tau in (self.tau_s, self.tau_s if self.cool_tau_s is None else self.cool_tau_s):
+            if not (math.isfinite(tau) and tau > 0.0):
+                raise ParameterError(f"a lag time constant must be positive, s; got {tau}")
         object.__setattr__(self, "tau_s", float(f"{self.tau_s:.6g}"))
+        if self.cool_tau_s is not None:
+            cool = float(f"{self.cool_tau_s:.6g}")
+            object.__setattr__(self, "cool_tau_s", None if cool == self.tau_s else cool)
         if not 1 <= self.order <= 9:
             raise ParameterError(f"temperature order must be 1..9, got {self.order}")
 
     @property
     def name(self) -> str:  # noqa: D102
-        return f"lag({self.tau_s:.6g}):dT^{self.order}"
+        cool = "" if self.cool_tau_s is None else f",{self.cool_tau_s:.6g}"
+        return f"lag({self.tau_s:.6g}{cool}):dT^{self.order}"
+
+    @property
+    def lag_key(self) -> tuple[float, ...]:  # noqa: D102
+        return (self.tau_s,) if self.cool_tau_s is None else (self.tau_s, self.cool_tau_s)
 
     @property
     def temperature_order(self) -> int:  # noqa: D102
@@ -265,7 +297,7 @@ class LaggedTemperaturePower(Basis):
     def evaluate(  # noqa: D102
         self, features: Features, references: Mapping[str, float] | None = None
     ) -> FloatArray:
-        lagged = features.lagged_temperature_c(self.tau_s)
+        lagged = features.lagged_temperature_c(self.tau_s, self.cool_tau_s)
         return np.asarray((lagged - features.t_ref_c) ** self.order)
 
 

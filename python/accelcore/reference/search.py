@@ -36,20 +36,26 @@ IntArray = NDArray[np.int64]
 Column = tuple[str, int, ArrayLike | None]
 
 
-def first_order_lag(time_s: ArrayLike, temperature_c: ArrayLike, tau_s: float) -> FloatArray:
+def first_order_lag(
+    time_s: ArrayLike, temperature_c: ArrayLike, tau_s: float, tau_cool_s: float | None = None
+) -> FloatArray:
     """Return the temperature through a first-order lag of ``tau_s`` seconds.
 
     ``y[i] = y[i-1] + a (x[i] - y[i-1])``, ``a = 1 - exp(-(t[i] - t[i-1]) / tau)``
-    computed as ``-expm1(-dt / tau)`` (as the core does), ``y[0] = x[0]``.
+    computed as ``-expm1(-dt / tau)`` (as the core does), ``y[0] = x[0]``. With
+    ``tau_cool_s``: ``tau`` is ``tau_s`` where ``x[i] > y[i-1]`` (heating), else
+    ``tau_cool_s``.
     """
     t = np.asarray(time_s, dtype=np.float64)
     x = np.asarray(temperature_c, dtype=np.float64)
+    cool = tau_s if tau_cool_s is None else tau_cool_s
     y = np.empty_like(x)
     for i in range(x.size):
         if i == 0:
             y[i] = x[0]
         else:
-            alpha = -math.expm1(-(t[i] - t[i - 1]) / tau_s)
+            tau = tau_s if x[i] > y[i - 1] else cool
+            alpha = -math.expm1(-(t[i] - t[i - 1]) / tau)
             y[i] = y[i - 1] + alpha * (x[i] - y[i - 1])
     return y
 

@@ -88,21 +88,24 @@ def _continued_power(
 class _CarriedFeatures(Features):
     """Features of one chunk whose lag filters start from the previous chunk's state."""
 
-    carried: dict[float, tuple[float, float, float]]
+    carried: dict[tuple[float, float | None], tuple[float, float, float]]
 
-    def lagged_temperature_c(self, tau_s: float) -> NDArray[np.float64]:
-        if tau_s not in self._lag_cache:
+    def lagged_temperature_c(
+        self, tau_s: float, cool_tau_s: float | None = None
+    ) -> NDArray[np.float64]:
+        key = (tau_s, cool_tau_s)
+        if key not in self._lag_cache:
             time_s = self._need_time(f"lag({tau_s})")
-            state = self.carried.get(tau_s)
+            state = self.carried.get(key)
             if state is None:
-                y = first_order_lag(time_s, self.temperature_c, tau_s)
+                y = first_order_lag(time_s, self.temperature_c, tau_s, tau_cool_s=cool_tau_s)
             else:
                 last_t, last_x, last_y = state
                 t_ext = np.concatenate([[last_t], time_s])
                 x_ext = np.concatenate([[last_x], self.temperature_c])
-                y = first_order_lag(t_ext, x_ext, tau_s, last_y)[1:]
-            self._lag_cache[tau_s] = y
-        return self._lag_cache[tau_s]
+                y = first_order_lag(t_ext, x_ext, tau_s, last_y, tau_cool_s=cool_tau_s)[1:]
+            self._lag_cache[key] = y
+        return self._lag_cache[key]
 
 
 class Compensator:
@@ -139,7 +142,7 @@ class Compensator:
         self._t_ref_c = t_ref_c
         self._range_c = temperature_range_c
         self._t0: float | None = None
-        self._carried: dict[float, tuple[float, float, float]] = {}
+        self._carried: dict[tuple[float, float | None], tuple[float, float, float]] = {}
         self._warned = False
         self._stacklevel = warn_stacklevel
         self.n_out_of_range = 0
@@ -209,8 +212,8 @@ class Compensator:
             g[active] = g_next
             active = active[~(moved <= FORCE_TOLERANCE_G)]
         if n and rel is not None:
-            for tau, y in feats._lag_cache.items():
-                self._carried[tau] = (float(rel[-1]), float(temp[-1]), float(y[-1]))
+            for key, y in feats._lag_cache.items():
+                self._carried[key] = (float(rel[-1]), float(temp[-1]), float(y[-1]))
         self.n_rows += n
         return g
 
@@ -220,7 +223,7 @@ class Compensator:
         if not (lo <= hi and continued_beyond_range(basis)):
             return basis.evaluate(feats, self._references)
         x = (
-            feats.lagged_temperature_c(basis.tau_s)
+            feats.lagged_temperature_c(basis.tau_s, basis.cool_tau_s)
             if isinstance(basis, LaggedTemperaturePower)
             else feats.temperature_c
         )

@@ -152,9 +152,14 @@ class ThermalLag:
     ----------
     tau_s : float
         Time constant, s (a part in a small package on a board: 30-300 s).
+    tau_cool_s : float, optional
+        The time constant while the chamber is colder than the die (cooling), when it
+        differs from the one while heating (``tau_s``): a board a heater blows on, in a
+        chamber that cools through its walls. Default: ``tau_s`` both ways.
     """
 
     tau_s: float = 60.0
+    tau_cool_s: float | None = None
 
     @property
     def name(self) -> str:
@@ -168,9 +173,13 @@ class ThermalLag:
 
     def apply(self, state: RunState, rng: np.random.Generator) -> None:
         """Replace ``state.die_temp_c`` by the lagged chamber temperature."""
-        if self.tau_s < 0:
-            raise ValueError(f"tau_s must be >= 0, got {self.tau_s}")
-        state.die_temp_c = first_order_lag(state.time_s, state.chamber_temp_c, float(self.tau_s))
+        for name, tau in (("tau_s", self.tau_s), ("tau_cool_s", self.tau_cool_s)):
+            if tau is not None and not tau >= 0:
+                raise ValueError(f"{name} must be >= 0, got {tau}")
+        cool = None if self.tau_cool_s is None else float(self.tau_cool_s)
+        state.die_temp_c = first_order_lag(
+            state.time_s, state.chamber_temp_c, float(self.tau_s), tau_cool_s=cool
+        )
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,22 @@ pub fn first_order_lag(
     tau_s: f64,
     initial: Option<f64>,
 ) -> Result<Vec<f64>> {
+    direction_lag(time_s, temperature_c, tau_s, tau_s, initial)
+}
+
+/// First-order lag whose time constant depends on the direction of the heat flow:
+/// `tau_heat_s` while the input is above the output (the die heating), `tau_cool_s`
+/// otherwise; each step as in [`first_order_lag`], which this is when the two are
+/// equal (the same floats). A die coupled to the air differently while the chamber
+/// heats (a heater blowing on the board) and while it cools (through the far wall)
+/// trails the logged probe by a time constant of each.
+pub fn direction_lag(
+    time_s: &[f64],
+    temperature_c: &[f64],
+    tau_heat_s: f64,
+    tau_cool_s: f64,
+    initial: Option<f64>,
+) -> Result<Vec<f64>> {
     if time_s.len() != temperature_c.len() {
         return Err(Error::Shape {
             what: "temperature_c",
@@ -23,11 +39,13 @@ pub fn first_order_lag(
             got: temperature_c.len(),
         });
     }
-    if !(tau_s.is_finite() && tau_s >= 0.0) {
-        return Err(Error::InvalidParameter {
-            name: "tau_s",
-            reason: format!("must be finite and >= 0, got {tau_s}"),
-        });
+    for (name, tau) in [("tau_s", tau_heat_s), ("tau_cool_s", tau_cool_s)] {
+        if !(tau.is_finite() && tau >= 0.0) {
+            return Err(Error::InvalidParameter {
+                name,
+                reason: format!("must be finite and >= 0, got {tau}"),
+            });
+        }
     }
     let mut out = Vec::with_capacity(time_s.len());
     let Some(&first) = temperature_c.first() else {
@@ -35,10 +53,10 @@ pub fn first_order_lag(
     };
     let mut y = initial.unwrap_or(first);
     let mut previous_t = time_s[0];
-    // Logs are sampled on a regular grid: the step's factor is computed again only
-    // when the interval changes (the same value as computing it every time).
+    // Logs are sampled on a regular grid: the steps' factors are computed again only
+    // when the interval changes (the same values as computing them every time).
     let mut last_dt = f64::NAN;
-    let mut alpha = 0.0;
+    let (mut alpha_heat, mut alpha_cool) = (0.0, 0.0);
     for (i, (&t, &x)) in time_s.iter().zip(temperature_c).enumerate() {
         if !(t.is_finite() && x.is_finite()) {
             return Err(Error::NonFinite {
@@ -47,7 +65,9 @@ pub fn first_order_lag(
                 column: 0,
             });
         }
-        if tau_s == 0.0 {
+        let heating = x > y;
+        let tau = if heating { tau_heat_s } else { tau_cool_s };
+        if tau == 0.0 {
             y = x;
         } else if i > 0 {
             let dt = t - previous_t;
@@ -60,9 +80,10 @@ pub fn first_order_lag(
             }
             if dt.to_bits() != last_dt.to_bits() {
                 last_dt = dt;
-                alpha = -(-dt / tau_s).exp_m1();
+                alpha_heat = -(-dt / tau_heat_s).exp_m1();
+                alpha_cool = -(-dt / tau_cool_s).exp_m1();
             }
-            y += alpha * (x - y);
+            y += (if heating { alpha_heat } else { alpha_cool }) * (x - y);
         }
         previous_t = t;
         out.push(y);
@@ -96,5 +117,40 @@ mod tests {
             Err(Error::NonFinite { row: 1, .. })
         ));
         assert!(first_order_lag(&[], &[], 1.0, None).unwrap().is_empty());
+    }
+
+    #[test]
+    fn direction_lag_takes_each_time_constant_on_its_leg() {
+        // Up a ramp then down it: on the way up the output trails by rate * tau_heat,
+        // on the way down it leads by rate * tau_cool (settled, within 1 %).
+        let time: Vec<f64> = (0..40_000).map(|i| f64::from(i) * 0.5).collect();
+        let temp: Vec<f64> = time
+            .iter()
+            .map(|&t| {
+                if t < 10_000.0 {
+                    0.01 * t
+                } else {
+                    100.0 - 0.01 * (t - 10_000.0)
+                }
+            })
+            .collect();
+        let y = direction_lag(&time, &temp, 50.0, 250.0, None).unwrap();
+        let up = temp[19_999] - y[19_999];
+        let down = y[39_999] - temp[39_999];
+        assert!((up - 0.5).abs() < 0.005, "{up}");
+        assert!((down - 2.5).abs() < 0.025, "{down}");
+        // Equal time constants: the same floats as the plain lag.
+        let same = direction_lag(&time, &temp, 60.0, 60.0, Some(1.0)).unwrap();
+        assert_eq!(
+            same,
+            first_order_lag(&time, &temp, 60.0, Some(1.0)).unwrap()
+        );
+        assert!(matches!(
+            direction_lag(&time, &temp, 50.0, -1.0, None),
+            Err(Error::InvalidParameter {
+                name: "tau_cool_s",
+                ..
+            })
+        ));
     }
 }

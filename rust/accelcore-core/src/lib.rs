@@ -43,7 +43,7 @@ pub use binning::{BinnedStats, BinnerConfig, TemperatureBinner};
 pub use compensate::compensate;
 pub use decimate::{DecimatedBlocks, Decimator, DecimatorConfig};
 pub use error::{Error, Result};
-pub use features::first_order_lag;
+pub use features::{direction_lag, first_order_lag};
 pub use fingerprint::fingerprint;
 pub use heldout::{BlockedLeastSquares, FoldedLeastSquares, HeldOutFit};
 pub use median::{median, nanmedian};

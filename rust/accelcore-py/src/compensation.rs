@@ -20,19 +20,23 @@ pub(crate) fn py_compensate<'py>(
     Ok(out.into_pyarray(py))
 }
 
-/// First-order lag of a temperature series (see `accelcore_core::first_order_lag`).
+/// First-order lag of a temperature series (see `accelcore_core::first_order_lag`);
+/// with `tau_cool_s`, `tau_s` while heating and `tau_cool_s` while cooling
+/// (`accelcore_core::direction_lag`).
 #[pyfunction(name = "first_order_lag")]
-#[pyo3(signature = (time_s, temperature_c, tau_s, /, initial = None))]
+#[pyo3(signature = (time_s, temperature_c, tau_s, /, initial = None, tau_cool_s = None))]
 pub(crate) fn py_first_order_lag<'py>(
     py: Python<'py>,
     time_s: In1<'py>,
     temperature_c: In1<'py>,
     tau_s: f64,
     initial: Option<f64>,
+    tau_cool_s: Option<f64>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let (time_s, temperature_c) = (slice_or_copy(&time_s), slice_or_copy(&temperature_c));
-    let out = run_detached(py, || {
-        accelcore_core::first_order_lag(&time_s, &temperature_c, tau_s, initial)
+    let out = run_detached(py, || match tau_cool_s {
+        None => accelcore_core::first_order_lag(&time_s, &temperature_c, tau_s, initial),
+        Some(cool) => accelcore_core::direction_lag(&time_s, &temperature_c, tau_s, cool, initial),
     })?;
     Ok(out.into_pyarray(py))
 }

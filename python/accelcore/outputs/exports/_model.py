@@ -65,7 +65,7 @@ class _ExtrasAtReference(Mapping[str, FloatArray]):
 class _HeldFeatures(Features):
     """Features of temperatures each held long enough that every lag has settled."""
 
-    def lagged_temperature_c(self, tau_s: float) -> FloatArray:
+    def lagged_temperature_c(self, tau_s: float, cool_tau_s: float | None = None) -> FloatArray:
         return self.temperature_c
 
 
