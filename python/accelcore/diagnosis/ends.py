@@ -4,28 +4,41 @@
 model space (:class:`~accelcore.diagnosis.space.Spec`); :func:`usable_extras` lists
 the extra columns to try; :func:`improved_calibration` fits the chosen terms and
 returns the calibration of method ``diagnosed``, without the session events
-(:func:`without_events`).
+(:func:`without_events`); :func:`engine_beside_checks` sets up the engine beside the
+session's data-quality checks.
 """
 
 from __future__ import annotations
 
+import math
+import os
 import warnings
 from collections.abc import Mapping, Sequence
+from typing import Any, Literal
 
 import numpy as np
 
 from accelcore.errors import ParameterError
 from accelcore.fitting.calibrate import calibrate
+from accelcore.input.quality import QualityIssue, check_session
 from accelcore.input.session import Session
 from accelcore.model import AXES
+from accelcore.pools import beside, shared_pool
 from accelcore.result.calibration import AxisModel, Calibration
 
+from . import search
 from .engine import Engine
 from .parameters import fit_models
 from .result import Step
 from .space import Spec, is_event, spec_from_terms
 
-__all__ = ["improved_calibration", "starting_point", "usable_extras", "without_events"]
+__all__ = [
+    "engine_beside_checks",
+    "improved_calibration",
+    "starting_point",
+    "usable_extras",
+    "without_events",
+]
 
 
 def without_events(
@@ -150,3 +163,27 @@ def improved_calibration(
         },
         provenance=dict(base.provenance),
     )
+
+
+def engine_beside_checks(
+    session: Session,
+    base: Calibration,
+    quality: Sequence[QualityIssue] | None,
+    **options: Any,
+) -> tuple[Engine, Sequence[QualityIssue] | None]:
+    """Set up the engine; without ``quality``, run the data-quality checks beside it.
+
+    The checks read the session only: on a pool thread, beside the engine's set-up
+    (both spend most of their time in the core and NumPy), with the interpreter's
+    short switch interval (:func:`accelcore.pools.beside`).
+    """
+    threads = search.search_threads or os.cpu_count() or 1
+    if quality is not None:
+        return Engine(session, base, threads=threads, **options), quality
+    window: tuple[float, float] | Literal["logged"] = (
+        base.window_c if all(map(math.isfinite, base.window_c)) else "logged"
+    )
+    with beside():
+        pool = shared_pool("accelcore-quality", 1)
+        checked = pool.submit(check_session, session, window_c=window, warn=False)
+        return Engine(session, base, threads=threads, **options), checked.result()

@@ -49,11 +49,11 @@ from accelcore.model import (
     design_columns,
 )
 from accelcore.pools import shared_pool
-from accelcore.result.calibration import AxisModel, Calibration, nominal_sensitivity
+from accelcore.result.calibration import AxisModel, Calibration
 
 from .fits import CV, Fit, fold_coefficients
-from .folds import choose_folds, cut_blocks
-from .parts import cut_parts
+from .folds import choose_folds, cut_blocks, fold_spans
+from .parts import axis_responses, cut_parts
 from .windows import choose_windows, noise_floor
 
 __all__ = ["CV", "Engine"]
@@ -148,45 +148,15 @@ class Engine:
         self.n_folds = len(self.fold_names)
         self.sample_fold = self.block_fold[self.sample_block]
         self.fold_rows = [np.flatnonzero(self.sample_fold == k) for k in range(self.n_folds)]
-        # Each fold as contiguous stretches of samples (neighbouring blocks joined).
-        self.fold_spans: list[list[tuple[int, int]]] = [[] for _ in range(self.n_folds)]
-        for k, s, e in zip(self.block_fold, self.block_start, self.block_stop, strict=True):
-            spans = self.fold_spans[k]
-            if spans and spans[-1][1] == s:
-                spans[-1] = (spans[-1][0], int(e))
-            else:
-                spans.append((int(s), int(e)))
+        #: Each fold as contiguous stretches of samples (neighbouring blocks joined).
+        self.fold_spans = fold_spans(
+            self.block_fold, self.block_start, self.block_stop, self.n_folds
+        )
         # Scale per axis (units per g) for mg conversion, fixed terms, centring.
         self.base = base
-        self.scale: dict[str, float] = {}
-        self.fixed: dict[str, list[tuple[Term, float]]] = {}
-        self.y: dict[str, FloatArray] = {}
-        for a_i, a in enumerate(AXES):
-            m = base.axes[a]
-            s0, _ = m.value("gain", "1", a)
-            if not s0:
-                nominal = nominal_sensitivity(session.units, session.sensor, session.gravity_m_s2)
-                s0 = nominal[a_i] if nominal else 1.0
-            self.scale[a] = float(s0)
-            fixed = [
-                (term, float(c))
-                for term, c, e in zip(m.terms, m.coefficients, m.estimated, strict=True)
-                if not e
-            ]
-            self.fixed[a] = fixed
-            y = self.output[:, a_i].copy()
-            for term, c in fixed:
-                if c != 0.0:  # a term held at 0 adds nothing (its column may be NaN: no T)
-                    y -= c * self.column(term)
-            # Centre with the base model's constant and own-gain terms (in every model's span).
-            c_off, _ = m.value("offset", "1")
-            y -= c_off
-            if not any(
-                term.kind == "gain" and term.basis == Constant() and term.source == a
-                for term, _ in fixed
-            ):
-                y -= s0 * self.gravity[:, a_i]
-            self.y[a] = y * (1000.0 / self.scale[a])
+        self.scale, self.fixed, self.y = axis_responses(
+            base, session, self.output, self.gravity, self.column
+        )
         self.windows = choose_windows(
             self.w,
             self.block_start,

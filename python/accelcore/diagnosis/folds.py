@@ -160,3 +160,20 @@ def choose_folds(
         block_fold[sel[order]] = np.arange(sel.size) % 3
     names = [f"blocks {k + 1}, {k + 4}, {k + 7}, … of each run" for k in range(3)]
     return "blocks", names, block_fold
+
+
+def fold_spans(
+    block_fold: NDArray[np.int64],
+    block_start: NDArray[np.int64],
+    block_stop: NDArray[np.int64],
+    n_folds: int,
+) -> list[list[tuple[int, int]]]:
+    """Return each fold's samples as contiguous stretches (neighbouring blocks joined)."""
+    spans: list[list[tuple[int, int]]] = [[] for _ in range(n_folds)]
+    for k, s, e in zip(block_fold, block_start, block_stop, strict=True):
+        fold = spans[k]
+        if fold and fold[-1][1] == s:
+            fold[-1] = (fold[-1][0], int(e))
+        else:
+            fold.append((int(s), int(e)))
+    return spans

@@ -11,7 +11,7 @@ Imports: NumPy, the model's features and the calibration's cut features and weig
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -20,8 +20,9 @@ from numpy.typing import NDArray
 from accelcore.errors import InsufficientDataError
 from accelcore.fitting.calibrate import CutFeatures, block_weights
 from accelcore.input.run import Run
-from accelcore.model import AXES, Features
-from accelcore.result.calibration import Calibration
+from accelcore.input.session import Session
+from accelcore.model import AXES, Constant, Features, Term
+from accelcore.result.calibration import Calibration, nominal_sensitivity
 
 from .observables import leg_labels, rate_c_per_min
 
@@ -192,3 +193,48 @@ def one_way(
         f"carried to the other unchecked); a session that {other} sees it whole: log a "
         "cycle that heats and cools back"
     )
+
+
+def axis_responses(
+    base: Calibration,
+    session: Session,
+    output: FloatArray,
+    gravity: FloatArray,
+    column: Callable[[Term], FloatArray],
+) -> tuple[dict[str, float], dict[str, list[tuple[Term, float]]], dict[str, FloatArray]]:
+    """Return each axis' scale (units per g), the base's fixed terms, and its response, mg.
+
+    The response is the output less the fixed terms (``column`` gives a term's column
+    over the samples) and less the base model's constant and own gain (in every
+    model's span), in mg of the scale: the base's sensitivity, else the nominal one.
+    """
+    scale: dict[str, float] = {}
+    fixed: dict[str, list[tuple[Term, float]]] = {}
+    y: dict[str, FloatArray] = {}
+    for a_i, a in enumerate(AXES):
+        m = base.axes[a]
+        s0, _ = m.value("gain", "1", a)
+        if not s0:
+            nominal = nominal_sensitivity(session.units, session.sensor, session.gravity_m_s2)
+            s0 = nominal[a_i] if nominal else 1.0
+        scale[a] = float(s0)
+        held = [
+            (term, float(c))
+            for term, c, e in zip(m.terms, m.coefficients, m.estimated, strict=True)
+            if not e
+        ]
+        fixed[a] = held
+        r = output[:, a_i].copy()
+        for term, c in held:
+            if c != 0.0:  # a term held at 0 adds nothing (its column may be NaN: no T)
+                r -= c * column(term)
+        # Centre with the base model's constant and own-gain terms (in every model's span).
+        c_off, _ = m.value("offset", "1")
+        r -= c_off
+        if not any(
+            term.kind == "gain" and term.basis == Constant() and term.source == a
+            for term, _ in held
+        ):
+            r -= s0 * gravity[:, a_i]
+        y[a] = r * (1000.0 / scale[a])
+    return scale, fixed, y

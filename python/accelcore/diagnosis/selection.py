@@ -21,8 +21,6 @@ calibration (:func:`_improved_calibration`) and check the final residual for str
 
 from __future__ import annotations
 
-import math
-import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from functools import partial
@@ -31,20 +29,20 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-from accelcore.input.quality import QualityIssue, check_session
+from accelcore.input.quality import QualityIssue
 from accelcore.input.session import Session
 from accelcore.model import AXES, Decay
-from accelcore.pools import beside, shared_pool
 from accelcore.result.calibration import Calibration
 
 from . import search
 from .between import cross_given_back, cross_left_out, hold_cross, one_run_caveats
 from .confounds import base_spanned, confounding
-from .ends import improved_calibration, starting_point, usable_extras
+from .ends import engine_beside_checks, improved_calibration, starting_point, usable_extras
 from .engine import Engine
 from .events import event_corrections, find_run_events, level_runs, levels_on_every_axis
 from .generic import LINE, TEMPERATURE_OBSERVABLES, generic_variants
 from .inside import alike
+from .lags import two_way_variants
 from .observables import STEADY_C_PER_MIN
 from .parameters import added_parameters, event_parameters, fit_models
 from .parts import one_way
@@ -58,7 +56,7 @@ from .scope import (
     without_findings,
 )
 from .search import variants
-from .space import FAMILIES, TWO_WAY_LAG, Spec, with_lag_pair, with_tau
+from .space import FAMILIES, TWO_WAY_LAG, Spec, with_tau
 from .stats import pooled_rms, wrms
 from .structure import (
     MIN_TEMPERATURE_SPAN_C,
@@ -190,34 +188,6 @@ class _Selection:
             ]
         return []
 
-    def _tried_two_ways(self, axis: str, spec: Spec) -> list[Tried]:
-        """Try the axis' die lag with a time constant of its own each way (:data:`TWO_WAY_LAG`).
-
-        Only on an axis whose model holds a lag of one time constant (a die lag, or a
-        rate term, which it replaces: a rate term is the lag's share that a one-way die
-        lag misses, and it took the place of the two ways' lag), where the session both
-        heats and cools (each way has a leg: the other way's time constant is otherwise
-        not seen), and where the search parts the two (:func:`.search.search_two_way`,
-        from the one-way die lag's time constant).
-        """
-        if spec.tau_cool is not None or (spec.tau is None) == (spec.rate_tau is None):
-            return []
-        if not {"heating", "cooling"} <= set(self.eng.leg_kinds.values()):
-            return []
-        range_s = self._tau_range("thermal_lag")
-        bare = replace(spec, rate_tau=None)
-        start = spec.tau
-        if start is None:
-            start, _ = search.search_1d(self.eng, axis, partial(with_tau, bare, "die"), range_s)
-        heat, cool, cv = search.search_two_way(self.eng, axis, bare, range_s, start)
-        two = with_lag_pair(bare, heat, cool)
-        if two.tau_cool is None:
-            return []
-        label = f"heating {heat:.3g} s, cooling {cool:.3g} s"
-        if spec.rate_tau is not None:
-            label += " (in place of the rate term)"
-        return [(TWO_WAY_LAG, label, cv, two)]
-
     def _search_together(self, family: str) -> None:
         """Run the time-constant searches of ``family`` on every axis at once.
 
@@ -241,7 +211,7 @@ class _Selection:
                 tried.append((fam, f"{what}tau {tau:.3g} s", cv, make(tau)))
             return tried
         if family == TWO_WAY_LAG:
-            return self._tried_two_ways(axis, spec)
+            return two_way_variants(self.eng, axis, spec, self._tau_range("thermal_lag"))
         if family == "smooth":
             return self._tried_generic(axis, spec)
         return [
@@ -470,7 +440,7 @@ def diagnose(
     options_given = {k: v for k, v in locals().items() if k not in _NOT_OPTIONS}
     check_options(families, max_steps, min_improvement, alpha)
     base, specs, notes = starting_point(session, calibration, t_ref_c, window_c)
-    eng, quality = _engine_beside_checks(
+    eng, quality = engine_beside_checks(
         session,
         base,
         quality,
@@ -572,30 +542,6 @@ def diagnose(
         session_events=tuple(selection.session_events),
         _engine=eng,
     )
-
-
-def _engine_beside_checks(
-    session: Session,
-    base: Calibration,
-    quality: Sequence[QualityIssue] | None,
-    **options: Any,
-) -> tuple[Engine, Sequence[QualityIssue] | None]:
-    """Set up the engine; without ``quality``, run the data-quality checks beside it.
-
-    The checks read the session only: on a pool thread, beside the engine's set-up
-    (both spend most of their time in the core and NumPy), with the interpreter's
-    short switch interval (:func:`accelcore.pools.beside`).
-    """
-    threads = search.search_threads or os.cpu_count() or 1
-    if quality is not None:
-        return Engine(session, base, threads=threads, **options), quality
-    window: tuple[float, float] | Literal["logged"] = (
-        base.window_c if all(map(math.isfinite, base.window_c)) else "logged"
-    )
-    with beside():
-        pool = shared_pool("accelcore-quality", 1)
-        checked = pool.submit(check_session, session, window_c=window, warn=False)
-        return Engine(session, base, threads=threads, **options), checked.result()
 
 
 def _again_with_events(
