@@ -20,6 +20,7 @@ Two methods, one result type (:class:`accelcore.result.calibration.Calibration`)
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any, Literal
 
@@ -28,7 +29,13 @@ from numpy.typing import NDArray
 
 from accelcore import core
 from accelcore._accelcore import MAX_TEMPERATURE_C, MIN_TEMPERATURE_C, __version__
-from accelcore.errors import InsufficientDataError, ParameterError, SingularSystemError
+from accelcore.errors import (
+    DataQualityWarning,
+    InsufficientDataError,
+    ParameterError,
+    SingularSystemError,
+)
+from accelcore.fitting.plausibility import implausible_sensitivities
 from accelcore.fitting.reduced import Reduced, functions_of, shared
 from accelcore.fitting.stacking import CutFeatures, Stacked, block_weights, stack_session
 from accelcore.input.session import Session
@@ -540,6 +547,11 @@ def calibrate(
             f"{lo:.1f}…{hi:.1f} °C: the offset and sensitivity at T_ref are extrapolated "
             "(pass t_ref_c inside the data to report them where they were measured)",
         ]
+    # A sensitivity the runs' own levels contradict: said, as a warning and a note.
+    implausible = implausible_sensitivities(session.runs, axes, session.units)
+    for line in implausible:
+        warnings.warn(f"{session.path or 'session'}: {line}", DataQualityWarning, stacklevel=2)
+    notes = [*notes, *implausible]
     provenance: dict[str, Any] = {
         "accelcore_version": __version__,
         "session_path": session.path,

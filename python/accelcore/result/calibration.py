@@ -255,7 +255,7 @@ class Calibration:
                     "offset_tc_mg_per_c_se": s.offset_tc_mg_per_c_se,
                     "sensitivity_tc_pct_per_c": s.sensitivity_tc_pct_per_c,
                     "sensitivity_tc_pct_per_c_se": s.sensitivity_tc_pct_per_c_se,
-                    "rms_residual_mg": 1000.0 * m.rms_residual / s.sensitivity
+                    "rms_residual_mg": 1000.0 * m.rms_residual / abs(s.sensitivity)
                     if s.sensitivity
                     else math.nan,
                     "n_samples": m.n_samples,
