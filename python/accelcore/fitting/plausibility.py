@@ -20,7 +20,6 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from accelcore.input.medians import nanmedian_columns
 from accelcore.input.run import Run
 from accelcore.model import AXES
 from accelcore.result.calibration import AxisModel
@@ -45,7 +44,7 @@ def implausible_sensitivities(
     live = [r for r in runs if len(r) and np.isfinite(r.output).any()]
     if len(live) < 2:
         return []
-    levels = np.array([nanmedian_columns(r.output) for r in live])
+    levels = np.array([r.levels for r in live])
     grav = np.array([r.gravity_g for r in live])
     out: list[str] = []
     for i, a in enumerate(AXES):

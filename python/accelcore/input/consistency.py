@@ -32,7 +32,6 @@ from numpy.typing import NDArray
 from accelcore import datasheets
 from accelcore.constants import AXES, STANDARD_GRAVITY, UNITS_PER_G
 from accelcore.errors import DataQualityWarning, SessionFormatError
-from accelcore.input.medians import nanmedian_columns
 from accelcore.input.run import Run
 
 __all__ = [
@@ -128,7 +127,7 @@ def check_labels(
     live = [r for r in runs if len(r) and np.isfinite(r.output).any()]
     if not live:
         return
-    levels = np.array([nanmedian_columns(r.output) for r in live])
+    levels = np.array([r.levels for r in live])
     if not np.isfinite(levels).all():  # finite cells whose block means overflow (1e308)
         i, a = (int(k) for k in np.argwhere(~np.isfinite(levels))[0])
         raise SessionFormatError(

@@ -7,6 +7,7 @@ checks can all build on it.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -14,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore._accelcore import RawStats
+from accelcore._accelcore import RawStats, nanmedian_columns
 
 __all__ = ["Run", "RunStats"]
 
@@ -135,6 +136,14 @@ class Run:
 
     def __len__(self) -> int:
         return int(self.time_s.shape[0])
+
+    @functools.cached_property
+    def levels(self) -> NDArray[np.float64]:
+        """Median output of each axis over the run, session units (NaN where none is finite).
+
+        Kept: the label check and the calibration's sensitivity check both read it.
+        """
+        return nanmedian_columns(self.output)
 
     @property
     def label(self) -> str:
