@@ -344,3 +344,43 @@ def test_what_ardupilot_did_to_the_imu_data_is_said(tmp_path: Path) -> None:
     _write_dataflash(turned, {0: _sweep(0)}, {"AHRS_ORIENTATION": 4.0})
     with pytest.warns(DataQualityWarning, match=r"AHRS_ORIENTATION = 4 in the log"):
         read_dataflash(turned)
+
+
+@pytest.mark.parametrize("instance", [0, 1])
+def test_the_exports_take_the_logged_sensor_by_default(
+    instance: int, sweep_ulg: Path, sweep_bin: Path, tmp_path: Path
+) -> None:
+    """A PX4 thermal calibration is matched to its sensor by TC_A<i>_ID: the ULog's
+    sensor_accel.device_id of the instance read (the sweep writes 2424842 + instance).
+    ArduPilot's INS_TCAL<n> is the DataFlash IMU instance + 1. Given, an argument wins;
+    through a saved calibration file the defaults stay."""
+    from accelcore import Calibration, calibrate
+    from accelcore.outputs.exports import export_ardupilot, export_px4
+
+    px4 = read_ulog(sweep_ulg, instance=instance)
+    assert px4.log_sensor == {"px4_instance": instance, "px4_device_id": 2_424_842 + instance}
+    cal = calibrate(px4)
+    saved = tmp_path / "cal.json"
+    cal.save(saved)
+    for c in (cal, Calibration.load(saved)):
+        out = export_px4(c)
+        assert (out.instance, out.device_id) == (instance, 2_424_842 + instance)
+        assert out.params[f"TC_A{instance}_ID"][0] == 2_424_842 + instance
+    assert export_px4(cal, instance=3, device_id=7).params["TC_A3_ID"][0] == 7
+    ardu = read_dataflash(sweep_bin, instance=instance)
+    assert ardu.log_sensor == {"ardupilot_imu": instance + 1}
+    assert export_ardupilot(calibrate(ardu)).imu == instance + 1
+    assert export_ardupilot(calibrate(ardu), imu=3).imu == 3
+
+
+def test_a_device_id_above_int32_is_written_as_px4_holds_it(sweep_ulg: Path) -> None:
+    """sensor_accel.device_id is a uint32, TC_A<i>_ID an int32 of the same bits."""
+    import dataclasses
+
+    from accelcore import calibrate
+    from accelcore.outputs.exports import export_px4
+
+    cal = calibrate(read_ulog(sweep_ulg))
+    big = {**cal.provenance, "log_sensor": {"px4_instance": 1, "px4_device_id": 3_000_000_000}}
+    out = export_px4(dataclasses.replace(cal, provenance=big))
+    assert (out.instance, out.device_id) == (1, 3_000_000_000 - 2**32)

@@ -560,6 +560,8 @@ def calibrate(
     }
     if session.format is not None and session.format.lab:
         provenance["lab"] = dict(session.format.lab)
+    if session.log_sensor:
+        provenance["log_sensor"] = dict(session.log_sensor)
     return Calibration(
         method=method,
         units=session.units,

@@ -96,6 +96,13 @@ class Session:
     format : SessionFormat or None
         What ``session.toml`` says (delimiter, columns, time unit, run files...),
         when read from disk; None for :meth:`from_arrays` and the other readers.
+    log_sensor : dict of str to int
+        Who the sensor is in the flight stack whose log was read: ``px4_device_id``
+        (``sensor_accel.device_id``, when one value) and ``px4_instance``
+        (:func:`accelcore.input.readers.read_ulog`), ``ardupilot_imu`` (1-based,
+        :func:`accelcore.input.readers.read_dataflash`); empty otherwise. A
+        calibration keeps it in its provenance, and the PX4 and ArduPilot exports
+        take it as their defaults.
     gravity_m_s2 : float
         The local gravity, m/s² (default standard gravity): what the 1 g of the
         orientations is in a session in ``m/s2``.
@@ -112,6 +119,7 @@ class Session:
     format: SessionFormat | None = None
     digest: str = DIGESTS[0]
     gravity_m_s2: float = STANDARD_GRAVITY
+    log_sensor: dict[str, int] = field(default_factory=dict)
 
     @property
     def file_sha256(self) -> dict[str, str]:

@@ -238,12 +238,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--to", required=True, choices=("px4", "ardupilot", "imucal"), dest="target")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="file to write")
     p.add_argument(
-        "--instance", type=int, default=0, metavar="I", help="PX4: TC_A<I>_* (default 0)"
+        "--instance",
+        type=int,
+        metavar="I",
+        help="PX4: TC_A<I>_* (default: the ULog's sensor_accel instance, else 0)",
     )
     p.add_argument(
-        "--device-id", type=int, default=0, metavar="ID", help="PX4: the sensor's TC_A<I>_ID"
+        "--device-id",
+        type=int,
+        metavar="ID",
+        help="PX4: the sensor's TC_A<I>_ID (default: the ULog's device_id, else 0)",
     )
-    p.add_argument("--imu", type=int, default=1, metavar="N", help="ArduPilot: INS_TCAL<N>_*")
+    p.add_argument(
+        "--imu",
+        type=int,
+        metavar="N",
+        help="ArduPilot: INS_TCAL<N>_* (default: the DataFlash log's IMU, else 1)",
+    )
     p.add_argument(
         "--temperature",
         type=_window,

@@ -206,6 +206,7 @@ def _read(
         decimation_factor=decimation_factor,
         min_count=min_count,
         settle_s=settle_s,
+        log_sensor={"ardupilot_imu": instance + 1},  # INS_TCAL<n>: n is 1-based
     )
     _warn_of_params(file, instance, params, tcal)
     return session

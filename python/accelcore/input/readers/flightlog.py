@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import importlib
 import itertools
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from types import ModuleType
 
@@ -99,8 +99,11 @@ def flight_session(
     decimation_factor: int | None,
     min_count: int,
     settle_s: float,
+    log_sensor: Mapping[str, int] | None = None,
 ) -> Session:
     """Decimate one IMU's samples into a Session of one run in ``m/s2``.
+
+    ``log_sensor``: the sensor's identity in the flight stack (:attr:`Session.log_sensor`).
 
     ``stream`` names the samples in messages and sources (``sensor_accel[0]``);
     each run's ``source`` is ``FILE#<stream>:messages=<first>-<last>`` (1-based
@@ -167,6 +170,7 @@ def flight_session(
         serial=serial,
         path=None,
         decimation_factor=factor,
+        log_sensor=dict(log_sensor or {}),
     )
 
 

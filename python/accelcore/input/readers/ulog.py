@@ -134,6 +134,12 @@ def read_ulog(
                 accel=np.column_stack([data[k][a:b].astype(np.float64) for k in "xyz"]),
             )
 
+    # Who the sensor is on the vehicle: PX4 matches a thermal calibration to it
+    # (TC_A<i>_ID); one device id over the log, else none.
+    log_sensor = {"px4_instance": instance}
+    ids = np.unique(data["device_id"]) if "device_id" in data else np.zeros(0)
+    if ids.size == 1:
+        log_sensor["px4_device_id"] = int(ids[0])
     return flight_session(
         rows(),
         file=file,
@@ -145,4 +151,5 @@ def read_ulog(
         decimation_factor=decimation_factor,
         min_count=min_count,
         settle_s=settle_s,
+        log_sensor=log_sensor,
     )

@@ -35,6 +35,7 @@ __all__ = [
     "describe",
     "fit_cubic_offsets",
     "float32_text",
+    "log_sensor",
     "model_at",
     "model_response",
 ]
@@ -323,3 +324,18 @@ def describe(cal: Calibration) -> str:
     if cal.serial:
         who += f" #{cal.serial}"
     return f"{who} ({cal.method} calibration, units {cal.units})"
+
+
+def log_sensor(cal: Calibration) -> dict[str, int]:
+    """Return the logged sensor's identity in its flight stack, as the provenance keeps it.
+
+    ``px4_device_id``, ``px4_instance``, ``ardupilot_imu``
+    (:attr:`accelcore.input.session.Session.log_sensor`); entries that are not whole
+    numbers are left out (a hand-edited file).
+    """
+    found = cal.provenance.get("log_sensor")
+    if not isinstance(found, Mapping):
+        return {}
+    return {
+        str(k): int(v) for k, v in found.items() if isinstance(v, int) and not isinstance(v, bool)
+    }

@@ -31,6 +31,7 @@ from accelcore.outputs.exports._model import (
     describe,
     fit_cubic_offsets,
     float32_text,
+    log_sensor,
 )
 from accelcore.result.calibration import Calibration
 
@@ -103,7 +104,7 @@ class ArduPilotExport:
 def export_ardupilot(
     cal: Calibration,
     *,
-    imu: int = 1,
+    imu: int | None = None,
     ramp_c_per_min: float = 1.0,
     gravity_g: Sequence[float] | None = None,
 ) -> ArduPilotExport:
@@ -112,8 +113,9 @@ def export_ardupilot(
     Parameters
     ----------
     cal : Calibration
-    imu : int
-        ``n`` of ``INS_TCAL<n>``, 1 to 3.
+    imu : int, optional
+        ``n`` of ``INS_TCAL<n>``, 1 to 3. Default: the IMU of the DataFlash log the
+        calibration was fitted on (its provenance's ``log_sensor``), else 1.
     ramp_c_per_min : float
         Rate of the thermal cycle on which history-dependent terms are evaluated.
     gravity_g : sequence of 3 float, optional
@@ -124,6 +126,8 @@ def export_ardupilot(
     -------
     ArduPilotExport
     """
+    if imu is None:
+        imu = log_sensor(cal).get("ardupilot_imu", 1)
     if not 1 <= imu <= 3:
         raise ParameterError(f"ArduPilot has INS_TCAL1 … INS_TCAL3; imu {imu} is out of range")
     fit = fit_cubic_offsets(

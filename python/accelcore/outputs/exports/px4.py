@@ -34,6 +34,7 @@ from accelcore.outputs.exports._model import (
     describe,
     fit_cubic_offsets,
     float32_text,
+    log_sensor,
 )
 from accelcore.result.calibration import Calibration
 
@@ -113,8 +114,8 @@ class Px4Export:
 def export_px4(
     cal: Calibration,
     *,
-    instance: int = 0,
-    device_id: int = 0,
+    instance: int | None = None,
+    device_id: int | None = None,
     t_ref_c: float | None = None,
     ramp_c_per_min: float = 1.0,
     gravity_g: Sequence[float] | None = None,
@@ -128,10 +129,13 @@ def export_px4(
     Parameters
     ----------
     cal : Calibration
-    instance : int
-        ``i`` of ``TC_A<i>``, 0 to 3.
-    device_id : int
+    instance : int, optional
+        ``i`` of ``TC_A<i>``, 0 to 3. Default: the ``sensor_accel`` instance of the
+        ULog the calibration was fitted on (its provenance's ``log_sensor``), else 0.
+    device_id : int, optional
         The sensor's device id (``CAL_ACC<n>_ID`` on the vehicle); 0 matches none.
+        Default: the ``device_id`` that ULog logged (as PX4's int32 parameter holds
+        it), else 0.
     t_ref_c : float, optional
         ``TC_A<i>_TREF``; default the middle of the calibrated range (as PX4's script).
     ramp_c_per_min : float
@@ -152,6 +156,13 @@ def export_px4(
     -------
     Px4Export
     """
+    logged = log_sensor(cal)
+    if instance is None:
+        instance = logged.get("px4_instance", 0)
+    if device_id is None:
+        # A uint32 in the log; PX4's parameter is an int32 of the same bits.
+        found = logged.get("px4_device_id", 0)
+        device_id = found - 2**32 if found >= 2**31 else found
     if not 0 <= instance <= 3:
         raise ParameterError(f"PX4 has TC_A0 … TC_A3; instance {instance} is out of range")
     if not -(2**31) <= device_id < 2**31:
