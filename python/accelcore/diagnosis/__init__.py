@@ -14,6 +14,10 @@ greedily by *held-out* error only:
     every ``dT^k`` basis of the axis replaced by ``lag(tau):dT^k``, or an offset
     ``lag(tau):dT^1`` beside ``dT^1`` (a rate term); ``tau`` estimated by a grid and
     golden-section search on the held-out error;
+``two_way_lag``
+    on an axis that holds a lag of one time constant, where the session heats and
+    cools: a die lag ``lag(h,c):dT^k`` of one time constant while heating and another
+    while cooling (:mod:`~accelcore.diagnosis.lags`);
 ``misalignment``
     gain terms on the other axes' gravity (cross-axis sensitivity; with six
     orientations, the full 3x3 sensitivity matrix);
@@ -40,6 +44,7 @@ Modules, along the data flow:
 - :mod:`~accelcore.diagnosis.stats`: chi-square and t tails, the paired test;
 - :mod:`~accelcore.diagnosis.engine`: parts, blocks and folds; held-out fits;
 - :mod:`~accelcore.diagnosis.search`: variants, the lag time-constant search;
+- :mod:`~accelcore.diagnosis.lags`: the two-way lag's search and variant;
 - :mod:`~accelcore.diagnosis.confounds`: what the session cannot tell apart (pairs of
   effects, effects the base model's own terms span);
 - :mod:`~accelcore.diagnosis.structure`: the binned check of the final residual;
