@@ -306,3 +306,10 @@ def chamber_rate_c_per_min(state: Any) -> FloatArray:
     rate = np.gradient(state.chamber_temp_c, state.time_s) * 60.0
     k = max(1, int(60 * state.rate_hz))
     return np.asarray(np.convolve(rate, np.ones(k) / k, mode="same"), dtype=np.float64)
+
+
+def validation_case(bench: Any, name: str, hours: float) -> Any:
+    """The case of that name of ``benches/validation.py`` (``bench``), for runs of ``hours``."""
+    found = [c for c in bench._cases(hours * 3600.0) if c.name == name]
+    assert len(found) == 1, name
+    return found[0]

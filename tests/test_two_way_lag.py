@@ -15,14 +15,13 @@ from types import ModuleType
 from typing import Any
 
 from accelcore.diagnosis import diagnose
+from helpers import validation_case
 
 HOURS = 1.0
 
 
 def _case(bench: ModuleType, name: str) -> Any:
-    found = [c for c in bench._cases(HOURS * 3600.0) if c.name == name]
-    assert len(found) == 1, name
-    return found[0]
+    return validation_case(bench, name, HOURS)
 
 
 def test_both_time_constants_are_found_and_carried(bench: ModuleType) -> None:

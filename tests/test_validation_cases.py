@@ -14,15 +14,14 @@ from typing import Any
 import pytest
 
 from accelcore.diagnosis import diagnose
+from helpers import validation_case
 
 HOURS = 0.5
 
 
-def case(bench: ModuleType, name: str) -> object:
+def case(bench: ModuleType, name: str) -> Any:
     """The case of that name, for runs of ``HOURS``."""
-    found = [c for c in bench._cases(HOURS * 3600.0) if c.name == name]
-    assert len(found) == 1, name
-    return found[0]
+    return validation_case(bench, name, HOURS)
 
 
 def test_a_clean_part_is_not_made_worse_on_another_session(bench: ModuleType) -> None:
@@ -80,7 +79,7 @@ def test_an_offset_gone_mid_run_leaves_the_part_after_it(bench: ModuleType) -> N
     shifted half, a level of one run of the ± pair, passed as a second-order gain of x,
     carried into the calibration: 0.89 -> 1.61 mg on the validation session."""
     name = "offset gone mid-run (OX+, -6/5/-8 mg until mid-run)"
-    c: Any = case(bench, name)
+    c = case(bench, name)
     out = bench.run_case(c, 1, HOURS)
     assert out.added == ("event: step in OX+ at 900 s",), out.added
     # The ideal is the base model fitted on the same session simulated without the

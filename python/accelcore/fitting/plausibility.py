@@ -20,8 +20,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from accelcore.input.consistency import level_lines
 from accelcore.input.run import Run
-from accelcore.model import AXES
 from accelcore.result.calibration import AxisModel
 
 __all__ = ["SENSITIVITY_TOLERANCE", "implausible_sensitivities"]
@@ -38,22 +38,15 @@ def implausible_sensitivities(
 ) -> list[str]:
     """Return one line per axis whose fitted sensitivity the runs' levels contradict.
 
-    Only axes whose runs see two gravity values or more; the slope is the least-squares
-    line of the runs' median outputs against their labelled gravity.
+    Only axes whose runs see two gravity values or more; the slope is that of the
+    line of the runs' median outputs against their labelled gravity
+    (:func:`accelcore.input.consistency.level_lines`, the label check's).
     """
-    live = [r for r in runs if len(r) and np.isfinite(r.output).any()]
-    if len(live) < 2:
-        return []
-    levels = np.array([r.levels for r in live])
-    grav = np.array([r.gravity_g for r in live])
     out: list[str] = []
-    for i, a in enumerate(AXES):
-        g, m = grav[:, i], levels[:, i]
-        if np.ptp(g) == 0 or a not in axes:
+    for a, (_, slope) in level_lines(runs).items():
+        if a not in axes:
             continue
         fitted, _ = axes[a].value("gain", "1", a)
-        design = np.column_stack([np.ones_like(g), g])
-        slope = float(np.linalg.lstsq(design, m, rcond=None)[0][1])
         if not (np.isfinite(fitted) and slope != 0.0):
             continue
         if abs(fitted / slope - 1.0) <= SENSITIVITY_TOLERANCE:

@@ -135,13 +135,12 @@ def check_labels(
             "values are so large that their block means overflow): not a sensor output; "
             "check that column of the log"
         )
-    grav = np.array([r.gravity_g for r in live])
+    lines = level_lines(live)
     for a, axis in enumerate(AXES):
-        g, m = grav[:, a], levels[:, a]
+        m = levels[:, a]
         nominal = None if expected is None else expected[a]
-        if np.ptp(g) > 0:
-            design = np.column_stack([np.ones_like(g), g])
-            (offset, scale), *_ = np.linalg.lstsq(design, m, rcond=None)
+        if axis in lines:
+            offset, scale = lines[axis]
             _check_line(live, a, axis, offset, scale, nominal, m, where)
             _check_scale(axis, scale, nominal, units, sensor, where)
         elif nominal is not None and len(live) > 1 and np.ptp(m) > LABEL_TOLERANCE_G * nominal:
@@ -151,6 +150,27 @@ def check_labels(
                 f"same gravity on {axis} but read {axis} = {m[hi]:.6g} and {m[lo]:.6g} "
                 f"({(m[hi] - m[lo]) / nominal:.2f} g apart): the runs look swapped or mislabelled"
             )
+
+
+def level_lines(runs: Sequence[Run]) -> dict[str, tuple[float, float]]:
+    """Return each axis' line of the runs' median outputs against their labelled gravity.
+
+    (offset, output per g) by least squares over the runs with a finite output; only
+    the axes whose runs see two gravity values or more.
+    """
+    live = [r for r in runs if len(r) and np.isfinite(r.output).any()]
+    if len(live) < 2:
+        return {}
+    levels = np.array([r.levels for r in live])
+    grav = np.array([r.gravity_g for r in live])
+    lines: dict[str, tuple[float, float]] = {}
+    for a, axis in enumerate(AXES):
+        g = grav[:, a]
+        if np.ptp(g) > 0:
+            design = np.column_stack([np.ones_like(g), g])
+            (offset, scale), *_ = np.linalg.lstsq(design, levels[:, a], rcond=None)
+            lines[axis] = (float(offset), float(scale))
+    return lines
 
 
 def _name(run: Run) -> str:

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from accelcore._accelcore import digest_bytes
 from accelcore.constants import (
     DEFAULT_COLUMNS,
     DELIMITERS,
@@ -220,6 +221,22 @@ class SessionFormat:
     def channel_columns(self) -> tuple[str, str, str]:
         """Log columns of x, y and z."""
         return (self.columns["x"], self.columns["y"], self.columns["z"])
+
+    def toml_digest(self, digest: str) -> str:
+        """Return the digest of ``session.toml`` as parsed (:attr:`sha256` says which bytes).
+
+        ``digest``: ``"sha256"`` (the parsed bytes' own) or ``"blake3"`` (the file read
+        again, and refused if it changed since it was parsed).
+        """
+        if digest == "sha256":
+            return self.sha256
+        try:
+            data = self.toml_path.read_bytes()  # a few hundred bytes, read again
+        except OSError as exc:
+            raise AccelcoreIOError(f"{self.toml_path}: cannot be read: {exc}") from exc
+        if hashlib.sha256(data).hexdigest() != self.sha256:
+            raise AccelcoreIOError(f"{self.toml_path}: changed while the session was read")
+        return digest_bytes(data, digest)
 
     @property
     def run_files(self) -> tuple[Path, ...]:

@@ -10,7 +10,6 @@ arrays or pandas DataFrames.
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 from collections.abc import Mapping, Sequence
@@ -24,7 +23,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from accelcore import core
-from accelcore._accelcore import RunTally, digest_bytes, read_run
+from accelcore._accelcore import RunTally, read_run
 from accelcore.constants import (
     AXES,
     DEFAULT_COLUMNS,
@@ -33,7 +32,6 @@ from accelcore.constants import (
     STANDARD_GRAVITY,
 )
 from accelcore.errors import (
-    AccelcoreIOError,
     InsufficientDataError,
     ParameterError,
     SessionFormatError,
@@ -560,7 +558,7 @@ def load_folder(
         for i in missing:
             store.store(probes[i], built[i][1], built[i][2])  # only if the file did not change
         store.finish()
-    file_digests = {fmt.toml_path.name: _toml_digest(fmt, digest)}
+    file_digests = {fmt.toml_path.name: fmt.toml_digest(digest)}
     for spec, (_, _, hexdigest) in zip(fmt.runs, built, strict=True):
         file_digests[spec.path.name] = hexdigest
     runs = [run for run, _, _ in built]
@@ -593,16 +591,3 @@ def _run_stats(data: RunRecord) -> RunStats:
         n_at_min=data.n_at_min,
         n_at_max=data.n_at_max,
     )
-
-
-def _toml_digest(fmt: SessionFormat, digest: str) -> str:
-    """Return the digest of ``session.toml`` as parsed (``fmt.sha256`` says which bytes)."""
-    if digest == "sha256":
-        return fmt.sha256
-    try:
-        data = fmt.toml_path.read_bytes()  # a few hundred bytes, read again
-    except OSError as exc:
-        raise AccelcoreIOError(f"{fmt.toml_path}: cannot be read: {exc}") from exc
-    if hashlib.sha256(data).hexdigest() != fmt.sha256:
-        raise AccelcoreIOError(f"{fmt.toml_path}: changed while the session was read")
-    return digest_bytes(data, digest)

@@ -152,7 +152,7 @@ def read_log_session(
     before = _state(spec.path)
     session = _read(spec, fmt, decimation_factor=decimation_factor, min_count=min_count)
     digests = {
-        fmt.toml_path.name: folders._toml_digest(fmt, digest),
+        fmt.toml_path.name: fmt.toml_digest(digest),
         spec.file: _log_digest(spec.path, digest, before),
     }
     return dataclasses.replace(
