@@ -10,6 +10,8 @@ from types import MappingProxyType
 from typing import Final
 
 __all__ = [
+    "ARDUPILOT_SCALE",
+    "ARDUPILOT_T_REF_C",
     "AXES",
     "DEFAULT_COLUMNS",
     "DELIMITERS",
@@ -67,6 +69,12 @@ SESSION_FORMAT: Final = "accelcore-session/1"
 
 STANDARD_GRAVITY: Final = 9.80665
 """Standard gravity, m/s² per g: a session in m/s2 without ``gravity_m_s2`` assumes it."""
+
+ARDUPILOT_T_REF_C: Final = 35.0
+"""ArduPilot's fixed reference temperature of its ``INS_TCAL`` polynomial, °C."""
+
+ARDUPILOT_SCALE: Final = 1.0e6
+"""ArduPilot's ``INS_TCAL<n>_ACC<k>_*`` parameters hold their coefficients times this."""
 
 DTDT_SMOOTHING_S: Final = 60.0
 """Time constant of the causal smoothing behind the ``dTdt`` model basis, s."""

@@ -1,5 +1,9 @@
 """ArduPilot DataFlash ``.bin`` logs (``pip install accelcore[ardupilot]``): one ``IMU`` instance.
 
+The logged samples are taken back to what the sensor read: the board rotation and
+ArduPilot's temperature correction and accelerometer calibration are undone with the
+log's own parameters (:mod:`accelcore.input.readers.ardupilot_undo`).
+
 pymavlink is optional: it is imported when :func:`read_dataflash` is called, so
 that ``import accelcore`` works without it.
 """
@@ -15,10 +19,12 @@ import numpy as np
 
 from accelcore.errors import DataQualityWarning, ParameterError
 from accelcore.input.readers import common
+from accelcore.input.readers.ardupilot_undo import ROTATION, LoggedCorrections
 from accelcore.input.readers.common import _check_file, _parse_error
 from accelcore.input.readers.flightlog import (
     LEVEL_ORIENTATION,
     FlightRows,
+    check_orientation,
     flight_session,
     require,
 )
@@ -75,10 +81,21 @@ def read_dataflash(
     """Read one accelerometer of an ArduPilot DataFlash log (``pip install accelcore[ardupilot]``).
 
     Reads the ``IMU`` messages of one instance (field ``I``; ``IMU2``/``IMU3``
-    in logs older than ArduPilot 4.1): ``AccX``, ``AccY``, ``AccZ`` in m/s² as
-    logged (ArduPilot logs them after its own calibration and temperature
-    compensation, if any is enabled), ``T`` in °C and ``TimeUS`` (µs since
-    boot, kept as seconds since boot). Only binary logs (``.bin``) are read.
+    in logs older than ArduPilot 4.1): ``AccX``, ``AccY``, ``AccZ`` in m/s², ``T``
+    in °C and ``TimeUS`` (µs since boot, kept as seconds since boot). Only binary
+    logs (``.bin``) are read.
+
+    ArduPilot logs the acceleration after its own corrections, in the body frame:
+    what the log's parameters say it did is undone, as ArduPilot's ``tempcal_IMU.py``
+    does before it fits (:mod:`accelcore.input.readers.ardupilot_undo`). The board
+    rotation ``AHRS_ORIENTATION`` is turned back, and the run labelled in the sensor's
+    frame (a board mounted upside down, ``AHRS_ORIENTATION = 8``, lying level is
+    ``OZ+``); the temperature correction (``INS_TCAL<n>_ENABLE = 1``) and the
+    accelerometer offsets and scale are taken back out. The calibration is then the
+    sensor's own, in the frame ArduPilot's ``INS_TCAL`` parameters act in. Where
+    the rotation would put gravity off the sensor's axes (a board turned by 45°),
+    the data stay in the body frame, corrections undone, with a
+    :class:`~accelcore.DataQualityWarning`.
 
     Parameters
     ----------
@@ -87,8 +104,9 @@ def read_dataflash(
     instance : int, default 0
         The IMU instance (0 is the first IMU).
     orientation : str, default "OZ-"
-        The orientation of the whole log (one run). ArduPilot's body frame is
-        FRD (z down), so a board lying flat reads -1 g on z: ``OZ-``.
+        The orientation of the whole log (one run) in the body frame as logged.
+        ArduPilot's body frame is FRD (z down), so a vehicle standing level reads
+        -1 g on z: ``OZ-``.
     rate_hz : float, optional
         Logging rate of the IMU messages; by default the median interval of the
         first chunk of samples (rounded to 6 significant digits).
@@ -111,7 +129,9 @@ def read_dataflash(
         Not a binary DataFlash log, no ``IMU`` message format, or a field
         missing from it (the message names the file).
     accelcore.ParameterError
-        No IMU instance ``instance`` (the message lists those found).
+        No IMU instance ``instance`` (the message lists those found), or an
+        ``AHRS_ORIENTATION`` pymavlink's table of rotations does not hold or that
+        changes during the log.
     """
     dfreader = require("pymavlink.DFReader", "ardupilot", "read_dataflash")
     file = _check_file(path)
@@ -156,8 +176,13 @@ def _read(
 ) -> Session:
     name, by_field = _stream_name(reader, file, instance)
     seen: set[int] = set()
-    tcal = f"INS_TCAL{instance + 1}_ENABLE"
-    params: dict[str, float] = {}
+    logged = LoggedCorrections.scan(reader, instance, file)
+    undone = logged.undone()
+    body_label = check_orientation(orientation, f"IMU[{instance}]")
+    sensor_label = logged.sensor_label(body_label)
+    # Back to the sensor's frame, unless gravity would then lie off its axes (a
+    # board turned by 45° or 7°): then corrections undone, in the logged frame.
+    rotate = sensor_label is not None
 
     def rows() -> Iterator[FlightRows]:
         buffer: list[tuple[float, float, float, float, float]] = []
@@ -166,17 +191,15 @@ def _read(
         def flush() -> FlightRows:
             a = np.asarray(buffer, dtype=np.float64).reshape(-1, 5)
             buffer.clear()
-            return FlightRows(time_s=a[:, 0] * 1e-6, temperature_c=a[:, 4], accel=a[:, 1:4])
+            accel = a[:, 1:4]
+            if undone:
+                accel = logged.undo(a[:, 0], a[:, 4], accel, rotate=rotate)
+            return FlightRows(time_s=a[:, 0] * 1e-6, temperature_c=a[:, 4], accel=accel)
 
         while True:
-            m = reader.recv_match(type=[name, "PARM"])
+            m = reader.recv_match(type=name)
             if m is None:
                 break
-            if m.get_type() == "PARM":
-                # What the log's IMU data already went through (read as they come).
-                if m.Name in (tcal, "AHRS_ORIENTATION"):
-                    params[m.Name] = float(m.Value)
-                continue
             if by_field:
                 seen.add(int(m.I))
                 if m.I != instance:
@@ -199,7 +222,7 @@ def _read(
         rows(),
         file=file,
         stream=f"IMU[{instance}]",
-        orientation=orientation,
+        orientation=sensor_label or body_label,
         rate_hz=rate_hz,
         sensor=sensor,
         serial=serial,
@@ -208,35 +231,14 @@ def _read(
         settle_s=settle_s,
         log_sensor={"ardupilot_imu": instance + 1},  # INS_TCAL<n>: n is 1-based
     )
-    _warn_of_params(file, instance, params, tcal)
+    if logged.rotation and not rotate:
+        warnings.warn(
+            f"{file}: {ROTATION} = {logged.rotation:g} in the log turns {body_label} off the "
+            "sensor's axes, so its IMU data stay in the board's rotated (body) frame "
+            "(ArduPilot's corrections undone); ArduPilot applies a temperature correction "
+            "in the sensor's frame, so an ArduPilot export of this calibration would "
+            "correct the wrong axes",
+            DataQualityWarning,
+            stacklevel=3,
+        )
     return session
-
-
-def _warn_of_params(file: str, instance: int, params: dict[str, float], tcal: str) -> None:
-    """Warn of what the log's parameters did to its IMU data before it was logged.
-
-    ArduPilot logs the IMU after its own temperature correction (``INS_TCALn_ENABLE =
-    1``) and in the body frame, after the board's rotation (``AHRS_ORIENTATION``),
-    while it applies a temperature correction in the sensor frame, before that rotation
-    (``AP_InertialSensor_Backend``; its ``tempcal_IMU.py`` undoes both first).
-    """
-    if params.get(tcal, 0.0) == 1.0:
-        warnings.warn(
-            f"{file}: {tcal} = 1 in the log: ArduPilot had already corrected IMU "
-            f"{instance} for temperature; a calibration of these data fits what that "
-            f"correction left, and an ArduPilot export of it would replace it. Log the "
-            f"thermal calibration with {tcal} = 0",
-            DataQualityWarning,
-            stacklevel=3,
-        )
-    rotation = params.get("AHRS_ORIENTATION", 0.0)
-    if rotation != 0.0:
-        warnings.warn(
-            f"{file}: AHRS_ORIENTATION = {rotation:g} in the log: its IMU data are in the "
-            "board's rotated (body) frame, while ArduPilot applies a temperature "
-            "correction in the sensor's frame, before that rotation; an ArduPilot export "
-            "of this calibration would correct the wrong axes. Log with "
-            "AHRS_ORIENTATION = 0, or rotate the calibration back to the sensor's frame",
-            DataQualityWarning,
-            stacklevel=3,
-        )

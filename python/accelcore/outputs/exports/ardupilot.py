@@ -24,6 +24,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from accelcore.constants import ARDUPILOT_SCALE, ARDUPILOT_T_REF_C
 from accelcore.errors import ParameterError
 from accelcore.files import atomic_write
 from accelcore.outputs.exports._model import (
@@ -37,10 +38,6 @@ from accelcore.result.calibration import Calibration
 
 __all__ = ["ARDUPILOT_SCALE", "ARDUPILOT_T_REF_C", "ArduPilotExport", "export_ardupilot"]
 
-#: ArduPilot's fixed reference temperature of the polynomial, °C.
-ARDUPILOT_T_REF_C = 35.0
-#: Parameters hold the coefficients times this factor.
-ARDUPILOT_SCALE = 1.0e6
 #: ArduPilot's documented range of TMIN and TMAX, °C.
 _T_LIMITS = (-70.0, 80.0)
 
