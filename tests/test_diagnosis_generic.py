@@ -126,12 +126,15 @@ def test_short_static_holds_get_folds_inside_them_and_cross_axis_terms() -> None
     assert per_run.min() >= 3, per_run
     # No temperature-driven effect from 0.3 °C of drift.
     assert not any("temperature" in e or "dtemp" in e for e in d.effects)
-    # From calibrate's default (the full 3x3 gain, judged between runs): the runs
-    # support it, and an independent set of holds of the same part compensates to the
-    # noise (0.86 mg on z, 0.6 mg on x and y at 100 Hz; 12 decimated blocks of 10
-    # samples per hold).
+    # From calibrate's default (the full 3x3 gain, judged between runs; no temperature
+    # term on 0.3 °C): the runs support it, and an independent set of holds of the same
+    # part compensates to the noise (0.86 mg on z, 0.6 mg on x and y at 100 Hz; 12
+    # decimated blocks of 10 samples per hold). The part's z tempco moves each hold's
+    # output as its temperature creeps up: a drift may stand in for it (0.35 -> 0.29 mg
+    # on the other holds), a temperature effect may not.
     default = diagnose(session)
-    assert default.effects == ("misalignment",), default.text()
+    assert default.effects[0] == "misalignment", default.text()
+    assert set(default.effects) <= {"misalignment", "drift"}, default.text()
     other = short_holds(32)
     paper = validation_rms_mg(calibrate(session, terms=PAPER_TERMS), other)
     full = validation_rms_mg(calibrate(session), other)

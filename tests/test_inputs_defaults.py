@@ -23,6 +23,7 @@ from accelcore.apps.cli import main
 from accelcore.constants import STANDARD_GRAVITY
 from accelcore.input.format import gravity_of
 from accelcore.input.session import default_decimation_factor
+from accelcore.model import full_gain_terms
 from accelcore.outputs.exports import export_imucal, export_px4
 
 FloatArray = NDArray[np.float64]
@@ -167,10 +168,41 @@ def test_no_temperature_calibrates_at_one_temperature(flat: simulate.SimulatedAr
 def test_compensate_without_temperature_needs_a_model_without_temperature_terms(
     flat: simulate.SimulatedArrays,
 ) -> None:
-    with_temp = accelcore.calibrate(_arrays_session(flat))
+    # A steady 25 °C: the default fits no temperature term, so they are asked for.
+    with_temp = accelcore.calibrate(
+        _arrays_session(flat), terms={a: full_gain_terms(a) for a in "xyz"}
+    )
     with pytest.raises(accelcore.ParameterError, match=r"temp_c is None.*dT\^1") as info:
         with_temp.compensate(_raw(flat, 0), None)
     assert info.value.parameter == "temp_c"
+
+
+def test_a_temperature_that_does_not_move_gets_no_temperature_term(
+    flat: simulate.SimulatedArrays,
+) -> None:
+    """Below 1 °C of span (5th-95th percentile) the default calibration is at one
+    temperature: no offset or sensitivity tempco, said in the notes. Here the z-up
+    hold is logged twice, re-placed 0.3 °C warmer with 50 mg more on x (a re-seat);
+    fitted anyway, x's offset tempco takes the re-seat for temperature (50 mg over
+    0.3 °C: ~170 mg/°C, the size a real two-placement MPU6050 log gave; another
+    session 5 °C away would be off by most of a g)."""
+    runs = []
+    for r in flat.runs:
+        cols = dict(r.columns)
+        runs.append((r.orientation, cols))
+        if r.orientation == "OZ+":
+            again = {k: np.asarray(v).copy() for k, v in cols.items()}
+            again["temp_c"] = again["temp_c"] + 0.3
+            again["x"] = again["x"] + 0.050 * flat.truth.sensitivity_per_g[0]
+            runs.append(("OZ+", again))
+    session = accelcore.Session.from_arrays(runs, units=flat.units, rate_hz=flat.rate_hz)
+    cal = accelcore.calibrate(session)
+    assert not any(t.basis.temperature_order for m in cal.axes.values() for t in m.terms)
+    assert {"x:offset_tc", "x:sensitivity_tc"} <= set(cal.not_identified)
+    assert any("less than 1 °C: calibration at one temperature" in n for n in cal.notes)
+    forced = accelcore.calibrate(session, terms={a: full_gain_terms(a) for a in "xyz"})
+    tc = float(np.asarray(forced.summary()["offset_tc_mg_per_c"], dtype=float)[0])  # x
+    assert abs(tc) > 100.0, tc  # 50 mg / 0.3 °C, less what the other runs pull back
 
 
 def test_no_temperature_round_trips_through_the_file(

@@ -16,6 +16,7 @@ __all__ = [
     "DEFAULT_COLUMNS",
     "DELIMITERS",
     "DTDT_SMOOTHING_S",
+    "MIN_TEMPERATURE_SPAN_C",
     "ORIENTATIONS",
     "SAMPLE_TIME_UNIT",
     "SESSION_FORMAT",
@@ -75,6 +76,11 @@ ARDUPILOT_T_REF_C: Final = 35.0
 
 ARDUPILOT_SCALE: Final = 1.0e6
 """ArduPilot's ``INS_TCAL<n>_ACC<k>_*`` parameters hold their coefficients times this."""
+
+MIN_TEMPERATURE_SPAN_C: Final = 1.0
+"""Below this temperature span (5th to 95th percentile, °C) the temperature does not
+move: two of the paper's 0.5 °C bins. A default calibration then fits no temperature
+term, and the diagnosis tries no temperature-driven effect."""
 
 DTDT_SMOOTHING_S: Final = 60.0
 """Time constant of the causal smoothing behind the ``dTdt`` model basis, s."""

@@ -15,6 +15,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
+from accelcore.constants import MIN_TEMPERATURE_SPAN_C
 from accelcore.model import AXES
 
 from .engine import Engine
@@ -23,11 +24,9 @@ from .stats import chi2_sf
 
 __all__ = ["MIN_TEMPERATURE_SPAN_C", "TEMPERATURE_FAMILIES", "structures", "temperature_span_c"]
 
-#: Below this temperature span (5th to 95th percentile, °C) the temperature does not
-#: move: two of the paper's 0.5 °C bins. No temperature-driven effect is then tried,
-#: and structure against temperature or dT/dt is not reported (it would be noise in
-#: the thermometer, or time seen through a slow wander).
-MIN_TEMPERATURE_SPAN_C = 1.0
+# Below MIN_TEMPERATURE_SPAN_C (the foundation's) no temperature-driven effect is
+# tried, and structure against temperature or dT/dt is not reported (it would be noise
+# in the thermometer, or time seen through a slow wander).
 
 #: Fewest engine windows per bin for the structure check to bin windows rather than
 #: samples (:func:`structures`).

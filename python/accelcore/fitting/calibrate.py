@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from accelcore import core
 from accelcore._accelcore import MAX_TEMPERATURE_C, MIN_TEMPERATURE_C, __version__
+from accelcore.constants import MIN_TEMPERATURE_SPAN_C
 from accelcore.errors import (
     DataQualityWarning,
     InsufficientDataError,
@@ -224,6 +225,19 @@ def _thin_temperature_terms(
         if s < MIN_SPAN_FRACTION * span_all:
             thin.append((j, s, span_all))
     return thin
+
+
+def session_temperature_span_c(session: Session) -> float:
+    """Return the span of the runs' temperatures (block means), 5th to 95th percentile, °C.
+
+    0 when no finite temperature was logged.
+    """
+    temps = np.concatenate([np.asarray(r.temperature_c, dtype=np.float64) for r in session.runs])
+    temps = temps[np.isfinite(temps)]
+    if temps.size == 0:
+        return 0.0
+    lo, hi = np.quantile(temps, [0.05, 0.95])
+    return float(hi - lo)
 
 
 def _public_name(term: Term, axis: str) -> str:
@@ -517,7 +531,9 @@ def calibrate(
             a: tuple(terms[a]) if terms and a in terms else full_gain_terms(a) for a in AXES
         }
         unlogged: list[str] = []
-        if not session.has_temperature:
+        span = session_temperature_span_c(session)
+        still = terms is None and span < MIN_TEMPERATURE_SPAN_C
+        if not session.has_temperature or still:
             unlogged = [
                 f"{a}:{_public_name(t, a)}"
                 for a in AXES
@@ -531,11 +547,21 @@ def calibrate(
         axes, not_identified, notes, t_range, refs = _fit_joint(
             session, model_terms, t_ref_c, window_c, robust=robust
         )
-        if unlogged:
+        if unlogged and not session.has_temperature:
             not_identified = [*unlogged, *not_identified]
             notes = [
                 "no temperature logged: calibration at one temperature (offset, sensitivity "
                 "and cross-axis gain; no temperature terms, T_ref does not apply)",
+                *notes,
+            ]
+        elif unlogged:
+            not_identified = [*unlogged, *not_identified]
+            notes = [
+                f"the temperature spans {span:.2f} °C (5th to 95th percentile), less than "
+                f"{MIN_TEMPERATURE_SPAN_C:g} °C: calibration at one temperature, no "
+                "temperature terms (over so little, a temperature coefficient takes any "
+                "difference between runs, a re-placement or a slow settling, for "
+                "temperature, and extrapolates it; pass terms= to fit them anyway)",
                 *notes,
             ]
     lo, hi = t_range
