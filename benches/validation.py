@@ -111,6 +111,10 @@ OUTPUT_STEP_MG: Final = 10.0
 GONE_MG: Final = (-6.0, 5.0, -8.0)
 WARM_UP_MG: Final = 10.0
 WARM_UP_TAU_S: Final = 300.0
+#: One run's probe on a steel shelf, trailing the air (blind round 8's probe_on_shelf:
+#: read as a run's level and a step, it let a cross-axis gain of 1.1° on z in, 0.63 ->
+#: 6.3 mg on the validation session).
+PROBE_LAG_S: Final = 180.0
 #: A fixture creeping half a degree an hour: 8.7 mg on a cross axis by the end of a 1 h run.
 GRAVITY_DRIFT_DEG_PER_H: Final = 0.5
 
@@ -249,6 +253,11 @@ def _cases(run_s: float) -> tuple[ValidationCase, ...]:
             "offset gone mid-run (OX+, -6/5/-8 mg until mid-run)",
             events=(se.OutputStep("OX+", run_s / 2.0, GONE_MG, before=True),),
             expect="cut 1.5x",
+        ),
+        ValidationCase(
+            f"one run's probe trailing the air by {PROBE_LAG_S:g} s (OY-)",
+            events=(se.ProbeLag("OY-", PROBE_LAG_S),),
+            expect="rise <= 5%",
         ),
         ValidationCase(
             f"warm-up ({WARM_UP_MG:g} mg, τ {WARM_UP_TAU_S:g} s)",

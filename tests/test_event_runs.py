@@ -67,6 +67,12 @@ def test_one_runs_level_on_every_axis_is_an_event_not_a_k2(
         k = AXES.index(e["axis"])
         # Each level within 5 se (a few hundredths of a mg) of what was injected.
         assert abs(e["value"] - LEVEL_MG[k]) <= max(5 * e["se"], 0.05), e
+    # No effect added, yet the calibration is not the base's: the report says the base's
+    # terms were fitted beside the event, and that both held-out errors are of the
+    # output less it (the same words a real log needed: real22).
+    text = d.text()
+    assert d.effects == () and "fitted beside the session events below" in text, text
+    assert "Held-out error per axis (RMS, mg, on the output less the session events)" in text
 
 
 def test_a_free_run_level_leaves_a_k2_nothing_to_test(bench: ModuleType) -> None:

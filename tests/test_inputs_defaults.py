@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,7 @@ import accelcore
 from accelcore import simulate
 from accelcore.apps.cli import main
 from accelcore.constants import STANDARD_GRAVITY
+from accelcore.errors import TemperatureRangeWarning
 from accelcore.input.format import gravity_of
 from accelcore.input.session import default_decimation_factor
 from accelcore.model import full_gain_terms
@@ -200,9 +202,44 @@ def test_a_temperature_that_does_not_move_gets_no_temperature_term(
     assert not any(t.basis.temperature_order for m in cal.axes.values() for t in m.terms)
     assert {"x:offset_tc", "x:sensitivity_tc"} <= set(cal.not_identified)
     assert any("less than 1 °C: calibration at one temperature" in n for n in cal.notes)
+    # Nothing in this model reads the temperature: compensating 10 °C away extrapolates
+    # nothing and is not warned of (the real log's own samples were: 13107 of 45544
+    # lay past the block means' range, by the thermometer's 0.094 °C steps).
+    raw = _raw(flat, 0)
+    temp = np.asarray(flat.runs[0].columns["temp_c"]) + 10.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", TemperatureRangeWarning)
+        cal.compensate(raw, temp)
     forced = accelcore.calibrate(session, terms={a: full_gain_terms(a) for a in "xyz"})
+    with pytest.warns(TemperatureRangeWarning, match="outside the calibrated range"):
+        forced.compensate(raw, temp)
     tc = float(np.asarray(forced.summary()["offset_tc_mg_per_c"], dtype=float)[0])  # x
     assert abs(tc) > 100.0, tc  # 50 mg / 0.3 °C, less what the other runs pull back
+
+
+def test_a_cross_gain_held_for_want_of_the_opposite_run_is_said(
+    flat: simulate.SimulatedArrays,
+) -> None:
+    """One orientation per axis (OZ+, OX-, OY+; a real MPU6050 log, real22): z's offset,
+    sensitivity and two cross gains are four unknowns for three runs. The gain held at
+    0 is not identified, and the note says that z's offset then takes what z reads in
+    that gain's run (a 4° tilt there moved z's sensitivity by 7 %, 80 standard errors,
+    with nothing said)."""
+    runs = [
+        (r.orientation, dict(r.columns))
+        for r in flat.runs
+        if r.orientation in ("OZ+", "OX-", "OY+")
+    ]
+    cal = accelcore.calibrate(
+        accelcore.Session.from_arrays(runs, units=flat.units, rate_hz=flat.rate_hz)
+    )
+    held = [n for n in cal.not_identified if n.startswith("z:gain[")]
+    assert len(held) == 1, cal.not_identified
+    source = held[0][len("z:gain[")]
+    said = [n for n in cal.notes if n.startswith(f"z: gain[{source}]·1 held at 0")]
+    assert len(said) == 1 and f"log O{source.upper()}+ and O{source.upper()}-" in said[0], cal.notes
+    # No temperature term (a steady 25 °C): no word of T_ref outside the range.
+    assert not any("T_ref" in n for n in cal.notes), cal.notes
 
 
 def test_no_temperature_round_trips_through_the_file(

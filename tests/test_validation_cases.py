@@ -97,3 +97,22 @@ def test_an_offset_gone_mid_run_leaves_the_part_after_it(bench: ModuleType) -> N
     for e in d.session_events:
         true_mg = bench.GONE_MG["xyz".index(e["axis"])]
         assert abs(e["value"] - true_mg) < 5.0 * e["se"], e
+
+
+def test_a_run_whose_probe_trails_the_air_is_an_event_not_a_gain(bench: ModuleType) -> None:
+    """Blind round 8's probe_on_shelf: in OY- the probe lay on a shelf, 180 s behind the
+    air. Read as a level of OY+ and a step where the ramp turns, taken off the output,
+    the contrast between the pair let a cross-axis gain of 1.1° on z in: 0.63 -> 6.3 mg
+    on the validation session. Now the run's temperature is an event of its own (its
+    rate of change, in that run), nothing of the part's is added, and the validation
+    error is the clean session's."""
+    out = bench.run_case(case(bench, "one run's probe trailing the air by 180 s (OY-)"), 1, HOURS)
+    assert "event: temperature out of step in OY-" in out.added, out.added
+    assert all(e.startswith("event: ") for e in out.added), out.added
+    # The ideal is the base fitted on the session without the event (same seed and
+    # noise); the events take parts of two runs out of the fit: within 3 %.
+    assert out.diagnosed_mg <= 1.03 * out.ideal_mg, (out.diagnosed_mg, out.ideal_mg)
+    assert out.met
+    # The same session without the event: no run's temperature is out of step.
+    d = diagnose(bench.simulate_session((), 1, HOURS, bench.CALIBRATION_PROFILE))
+    assert not any("out of step" in str(e["event"]) for e in d.session_events), d.session_events

@@ -35,8 +35,9 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
+from accelcore.constants import MIN_TEMPERATURE_SPAN_C
 from accelcore.input.medians import median_of_finite
-from accelcore.model import AXES, Constant, RunStep, Term
+from accelcore.model import AXES, Constant, RunRate, RunStep, Term
 from accelcore.result.calibration import AxisModel
 
 from .between import window_residuals
@@ -136,6 +137,9 @@ def find_run_events(
     notes: list[str] = []
     runs = _runs(eng)
     labels = _labels(eng, runs)
+    # Runs whose temperature is out of step with the part's, each alone beside the models.
+    trailing, rate_notes = _trailing_runs(eng, specs, runs, labels, alpha)
+    notes += rate_notes
     resid = {a: eng.residuals(a, specs[a].terms(a))[0] for a in AXES}
     # Steps: one pass over every run, the corrected test over all windows.
     # Every position of every run counts as a test (conservative: the windows overlap).
@@ -158,7 +162,19 @@ def find_run_events(
             "(an effect that repeats in most runs is the part's or the chamber's)"
         )
         steps = []
-    elif len(runs) == 1 and steps:
+    elif trailing and steps:
+        # A run's temperature out of step reads, to the jump, as a step where the ramp
+        # turns; a step mid-run reads, to a run's rate, as the rate of the ramp it
+        # falls in. Each is kept only if it still holds beside the other.
+        beside = {a: replace(sp, events=(*sp.events, *steps)) for a, sp in specs.items()}
+        trailing = [
+            t
+            for t in trailing
+            if corrected_p(chi2_sf(_pooled_stat(eng, beside, t), 3), len(runs)) < alpha
+        ]
+        beside = {a: replace(sp, events=(*sp.events, *trailing)) for a, sp in specs.items()}
+        steps = [st for st in steps if _step_holds(eng, beside, st, n_windows, alpha)]
+    if len(runs) == 1 and steps:
         # With one record nothing tells a step from the part's own response where the
         # temperature's course turns (a lag's onset as a soak ends): no run without it.
         notes.append(
@@ -167,7 +183,7 @@ def find_run_events(
             "from the part's own response there"
         )
         steps = []
-    for term in steps[:MAX_EVENTS]:
+    for term in [*trailing, *steps][:MAX_EVENTS]:
         for a in AXES:
             specs[a] = replace(specs[a], events=(*specs[a].events, term))
         lines.append(term.effect)
@@ -201,6 +217,88 @@ def find_run_events(
             levels[a] = []
         lines += levels[a]
     return specs, lines, notes
+
+
+def _pooled_fit(
+    eng: Engine, specs: Mapping[str, Spec], term: Term
+) -> tuple[float, FloatArray, FloatArray]:
+    """Fit one event term on every sample beside the models: chi-square, sizes, errors.
+
+    Each axis' coefficient against its standard error, widened by the residual's own
+    correlation (:func:`variance_inflation`); the chi-square (3 dof) sums them over the
+    axes. Sizes and widened standard errors per axis (NaN where not estimated).
+    """
+    trial = {a: replace(spec, events=(*spec.events, term)) for a, spec in specs.items()}
+    models, _, _ = fit_models(eng, trial)
+    stat = 0.0
+    size = np.full(len(AXES), np.nan)
+    error = np.full(len(AXES), np.nan)
+    for i, (a, m) in enumerate(models.items()):
+        j = m.terms.index(term)
+        var = float(m.covariance[j, j]) * variance_inflation(eng, a, trial[a])
+        if m.estimated[j] and var > 0:
+            size[i], error[i] = float(m.coefficients[j]), math.sqrt(var)
+            stat += size[i] ** 2 / var
+    return stat, size, error
+
+
+def _pooled_stat(eng: Engine, specs: Mapping[str, Spec], term: Term) -> float:
+    """Chi-square (3 dof) of one event term fitted beside the models (:func:`_pooled_fit`)."""
+    return _pooled_fit(eng, specs, term)[0]
+
+
+def _trailing_runs(
+    eng: Engine,
+    specs: Mapping[str, Spec],
+    runs: list[NDArray[np.int64]],
+    labels: list[str],
+    alpha: float,
+) -> tuple[list[Term], list[str]]:
+    """Return the runs whose logged temperature is out of step with the part's, and notes.
+
+    A probe that lagged in one run (left on a shelf, out of its clip) logs
+    ``T - tau dT/dt``: the part's temperature terms then read that run off by about its
+    tempco times ``tau dT/dt``, an offset in the run's rate of change
+    (:class:`~accelcore.model.RunRate`). Each run's rate is fitted beside the models on
+    every sample, its size pooled over the axes against its widened standard error
+    (chi-square, 3 dof), Bonferroni-corrected over the runs. Being one run's, its size
+    must also stand out of the other runs' on some axis: beyond
+    :data:`LEVEL_OUTLIER_Z` robust standard deviations of theirs (their median and
+    MAD; at least its own standard error), as a run's level must. What the model leaves
+    in every run's rate (a lag it lacks, or holds only in part) is the part's. As for
+    steps, a rate off in half the runs or more is the part's, not an event. Only where
+    the temperature moves (:data:`MIN_TEMPERATURE_SPAN_C`).
+    """
+    if len(runs) < 3:
+        return [], []
+    lo, hi = np.quantile(eng.temperature, [0.05, 0.95])
+    if not hi - lo >= MIN_TEMPERATURE_SPAN_C:  # NaN: no temperature logged
+        return [], []
+    fits: dict[str, tuple[float, FloatArray, FloatArray, Term]] = {}
+    for label in dict.fromkeys(labels):
+        term = Term(
+            "offset", RunRate(label), effect=f"{EVENT_PREFIX}temperature out of step in {label}"
+        )
+        if np.any(eng.basis(term.basis)):
+            fits[label] = (*_pooled_fit(eng, specs, term), term)
+    found: list[tuple[float, Term]] = []
+    for label, (stat, size, error, term) in fits.items():
+        if corrected_p(chi2_sf(stat, 3), len(runs)) >= alpha:
+            continue
+        others = np.array([f[1] for k, f in fits.items() if k != label])
+        if others.shape[0] < 2:
+            continue
+        mid = np.nanmedian(others, axis=0)
+        spread = np.maximum(1.4826 * np.nanmedian(np.abs(others - mid), axis=0), error)
+        if np.nanmax(np.abs(size - mid) / spread) > LEVEL_OUTLIER_Z:
+            found.append((stat, term))
+    if 2 * len(found) >= len(runs):
+        return [], [
+            f"temperatures out of step in {len(found)} of {len(runs)} runs: not treated as "
+            "session events (what repeats in most runs is the part's: a lag)"
+        ]
+    found.sort(key=lambda f: -f[0])
+    return [t for _, t in found[:MAX_EVENTS]], []
 
 
 def level_runs(specs: Mapping[str, Spec]) -> list[str]:
@@ -296,21 +394,14 @@ def _step_holds(
     that stays: its size fitted with the rest, against its standard error, pooled over
     the axes (chi-square, 3 dof) and corrected as the jump is.
     """
-    trial = {a: replace(spec, events=(*spec.events, step)) for a, spec in specs.items()}
-    models, _, _ = fit_models(eng, trial)
-    stat = 0.0
-    for a, m in models.items():
-        j = m.terms.index(step)
-        var = float(m.covariance[j, j])
-        if m.estimated[j] and var > 0:
-            stat += float(m.coefficients[j]) ** 2 / (var * variance_inflation(eng, a, trial[a]))
-    return corrected_p(chi2_sf(stat, 3), n_windows) < alpha
+    return corrected_p(chi2_sf(_pooled_stat(eng, specs, step), 3), n_windows) < alpha
 
 
 def event_corrections(eng: Engine, models: Mapping[str, AxisModel]) -> list[FloatArray]:
     """Return what the fitted session events add to each part's output (n, 3), mg.
 
-    Every event's term of ``models`` (a step or a run's level: a :class:`RunStep`)
+    Every event's term of ``models`` (a step or a run's level, a :class:`RunStep`; a
+    run's temperature out of step, a :class:`RunRate`)
     evaluated on the part's samples, times its coefficient.
     """
     out = []
@@ -319,7 +410,7 @@ def event_corrections(eng: Engine, models: Mapping[str, AxisModel]) -> list[Floa
         for i, a in enumerate(AXES):
             m = models[a]
             for t, coef in zip(m.terms, m.coefficients, strict=True):
-                if is_event(t.effect) and isinstance(t.basis, RunStep) and coef != 0.0:
+                if is_event(t.effect) and isinstance(t.basis, (RunStep, RunRate)) and coef:
                     c[:, i] += coef * t.basis.evaluate(f)
         out.append(c)
     return out

@@ -25,6 +25,7 @@ from accelcore.model import (
     Extra,
     Hinge,
     LaggedTemperaturePower,
+    RunRate,
     RunStep,
     SquaredGravity,
     TemperatureRate,
@@ -141,7 +142,10 @@ def added_parameters(
 def event_parameters(
     eng: Engine, models: Mapping[str, AxisModel], specs: Mapping[str, Spec]
 ) -> list[dict[str, Any]]:
-    """Return the session events' parameters (a step, a run's level) in mg, one row each."""
+    """Return the session events' parameters, one row each.
+
+    A step or a run's level in mg; a run's temperature out of step in mg per °C/min.
+    """
     out: list[dict[str, Any]] = []
     for a in AXES:
         m = models[a]
@@ -150,7 +154,7 @@ def event_parameters(
         for t, c, var, est in zip(
             m.terms, m.coefficients, np.diag(m.covariance), m.estimated, strict=True
         ):
-            if is_event(t.effect) and isinstance(t.basis, RunStep):
+            if is_event(t.effect) and isinstance(t.basis, (RunStep, RunRate)):
                 se = math.sqrt(max(float(var), 0.0)) * k * widen if est else math.nan
                 out.append(
                     {
@@ -159,7 +163,7 @@ def event_parameters(
                         "parameter": t.name,
                         "value": float(c) * k,
                         "se": se,
-                        "unit": "mg",
+                        "unit": "mg" if isinstance(t.basis, RunStep) else "mg per °C/min",
                     }
                 )
     return out

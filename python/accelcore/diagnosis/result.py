@@ -248,8 +248,9 @@ class Diagnosis:
                 f"{r['step']:>4}  {r['effect']:<{wide}}{r['axes']:<7}{r['rms_in_after_mg']:>9.3f}"
                 f"{r['rms_out_after_mg']:>9.3f}{r['max_out_after_mg']:>9.2f}{r['cut_pct']:>6.1f}%"
             )
-        lines += ["", *effects_lines(self.effects_table())]
-        lines += ["", *heldout_lines(self.heldout_by_axis())]
+        events = bool(self.session_events)
+        lines += ["", *effects_lines(self.effects_table(), events)]
+        lines += ["", *heldout_lines(self.heldout_by_axis(), events)]
         if self.session_events:
             lines += ["", "Session events (this session only, fitted beside the model, not in it):"]
             lines += [

@@ -26,6 +26,7 @@ from accelcore.model import (
 )
 
 __all__ = [
+    "BETWEEN_RUNS",
     "EVENT_PREFIX",
     "FAMILIES",
     "TWO_WAY_LAG",
@@ -52,6 +53,10 @@ FAMILIES = (
     "warm_up",
     "run_events",
 )
+
+#: Families whose terms are constant in every run (a gain on gravity, which a run holds
+#: still): only the contrasts between runs tell them.
+BETWEEN_RUNS = ("misalignment", "nonlinearity")
 
 #: Family of a die lag with a time constant of its own while heating and while cooling:
 #: tried on an axis whose model holds a one-way die lag (``thermal_lag``), so that it is

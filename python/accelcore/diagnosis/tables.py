@@ -181,13 +181,16 @@ def _aligned(rows: Sequence[Sequence[str]], right: Sequence[int], indent: str) -
     return lines
 
 
-def effects_lines(table: pd.DataFrame) -> list[str]:
+def effects_lines(table: pd.DataFrame, events: bool = False) -> list[str]:
     """Render the "Added effects" block: per effect, one aligned line per axis and parameter.
 
     Parameters
     ----------
     table : pandas.DataFrame
         :func:`effects_table`.
+    events : bool
+        Session events were fitted beside the model (with no effect added, the
+        calibration is then not the base's: its terms were refitted beside them).
 
     Returns
     -------
@@ -196,6 +199,11 @@ def effects_lines(table: pd.DataFrame) -> list[str]:
         parameter  value ± se unit`` (the variant only on an axis' first line);
         one line saying no effect was added when the table is empty.
     """
+    if table.empty and events:
+        return [
+            "Added effects: none (no effect added; the base model's terms, fitted beside "
+            "the session events below, whose figures they change)"
+        ]
     if table.empty:
         return ["Added effects: none (no effect added; the base model is kept)"]
     lines = ["Added effects (parameter = value ± standard error):"]
@@ -220,20 +228,23 @@ def effects_lines(table: pd.DataFrame) -> list[str]:
     return lines
 
 
-def heldout_lines(table: pd.DataFrame) -> list[str]:
+def heldout_lines(table: pd.DataFrame, events: bool = False) -> list[str]:
     """Render the "Held-out error per axis" block: base → diagnosed, ratio and cut.
 
     Parameters
     ----------
     table : pandas.DataFrame
         :func:`heldout_by_axis`.
+    events : bool
+        Session events were found: both errors are of the output less them.
 
     Returns
     -------
     list of str
         A heading and one aligned line per axis and ``pooled``.
     """
-    lines = ["Held-out error per axis (RMS, mg): base → diagnosed"]
+    less = ", on the output less the session events" if events else ""
+    lines = [f"Held-out error per axis (RMS, mg{less}): base → diagnosed"]
     rows = []
     for r in table.to_dict(orient="records"):
         ratio, cut = r["ratio"], r["cut_pct"]

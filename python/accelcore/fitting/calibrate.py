@@ -115,6 +115,18 @@ def fit_axis(
         if estimated[j]:
             continue
         t = terms[j]
+        if t.kind == "gain" and t.source not in (None, axis) and t.basis == Constant():
+            if col_ss[j] > 0:
+                # Held for want of the opposite run: the offset and sensitivity are then
+                # fitted with it at 0, which is a choice, not a measurement.
+                src = str(t.source).upper()
+                notes.append(
+                    f"{axis}: {_public_name(t, axis)} held at 0 (these orientations cannot "
+                    f"tell it from {axis}'s offset and sensitivity), and those are fitted "
+                    f"with it at 0: what {axis} reads in the runs at ±1 g on {t.source} (a "
+                    f"tilt of them) is taken as its offset; log O{src}+ and O{src}- to "
+                    "tell them apart"
+                )
         if t.kind == "gain" and t.source == axis and t.basis == Constant():
             if nominal is None:
                 raise InsufficientDataError(
@@ -565,7 +577,9 @@ def calibrate(
                 *notes,
             ]
     lo, hi = t_range
-    if math.isfinite(lo) and not lo <= t_ref_c <= hi:
+    # T_ref is where a model with temperature terms reports its offset and sensitivity.
+    reads_t = any(needs_temperature(t.basis) for m in axes.values() for t in m.terms)
+    if reads_t and math.isfinite(lo) and not lo <= t_ref_c <= hi:
         away = lo - t_ref_c if t_ref_c < lo else t_ref_c - hi
         notes = [
             *notes,

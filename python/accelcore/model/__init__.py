@@ -33,6 +33,9 @@ code then asks the value what it is instead of splitting strings:
     1 in run ``RUN`` from ``t0`` seconds into it on, else 0 (the part knocked
     mid-run; a session event); ``until(RUN@t0)``, 1 before ``t0`` instead (an
     offset that went away mid-run);
+``rate(RUN)`` (:class:`RunRate`)
+    ``dTdt`` in run ``RUN``, else 0 (that run's logged temperature trailing the part's,
+    a probe that lagged in one run; a session event);
 ``g_b^2`` (:class:`SquaredGravity`)
     the square of the specific force on axis ``b``, g² (an offset in ``g_b^2`` is the
     second-order nonlinearity of the output in the force, IEEE Std 1293's ``K2``
@@ -60,6 +63,7 @@ from .bases import (
     Features,
     Hinge,
     LaggedTemperaturePower,
+    RunRate,
     RunStep,
     SquaredGravity,
     TemperaturePower,
@@ -78,6 +82,7 @@ __all__ = [
     "Features",
     "Hinge",
     "LaggedTemperaturePower",
+    "RunRate",
     "RunStep",
     "SquaredGravity",
     "TemperaturePower",

@@ -29,6 +29,7 @@ __all__ = [
     "Features",
     "Hinge",
     "LaggedTemperaturePower",
+    "RunRate",
     "RunStep",
     "SquaredGravity",
     "TemperaturePower",
@@ -189,6 +190,9 @@ class Basis(ABC):
         m = _STEP.match(text)
         if m:
             return RunStep(m.group(2), float(m.group(3)), before=m.group(1) == "until")
+        m = _RUN_RATE.match(text)
+        if m:
+            return RunRate(m.group(1))
         m = _HINGE.match(text)
         if m:
             return Hinge(float(m.group(1)), Basis.parse(m.group(2)))
@@ -205,6 +209,7 @@ _LAG = re.compile(r"^lag\(([0-9.eE+-]+)(?:,([0-9.eE+-]+))?\):dT\^([1-9])$")
 _HINGE = re.compile(r"^hinge\(([0-9.eE+-]+)\):(.+)$")
 _DECAY = re.compile(r"^decay\(([0-9.eE+-]+)\)$")
 _STEP = re.compile(r"^(step|until)\((.+)@([0-9.eE+-]+)\)$")
+_RUN_RATE = re.compile(r"^rate\((.+)\)$")
 _SQUARE = re.compile(r"^g_([xyz])\^2$")
 
 
@@ -454,6 +459,30 @@ class RunStep(Basis):
             return np.zeros(len(features))
         after = features._need_time(self.name) >= self.at_s
         return (~after if self.before else after).astype(np.float64)
+
+
+@dataclass(frozen=True)
+class RunRate(Basis):
+    """``rate(RUN)``: the temperature's rate of change (``dTdt``, °C/min) in run ``RUN``, else 0.
+
+    A session event: a run whose logged temperature trails (or leads) the part's, a
+    probe that lagged in that run only, reads off by about its lag times the rate.
+    """
+
+    run: str
+
+    stateful: ClassVar[bool] = True
+
+    @property
+    def name(self) -> str:  # noqa: D102
+        return f"rate({self.run})"
+
+    def evaluate(  # noqa: D102
+        self, features: Features, references: Mapping[str, float] | None = None
+    ) -> FloatArray:
+        if features.run != self.run:
+            return np.zeros(len(features))
+        return TemperatureRate().evaluate(features, references)
 
 
 @dataclass(frozen=True)

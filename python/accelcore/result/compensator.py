@@ -120,7 +120,8 @@ class Compensator:
     Attributes
     ----------
     n_out_of_range : int
-        Samples so far outside the calibrated temperature range (warned once).
+        Samples so far outside the calibrated temperature range (warned once); 0 for
+        a model without temperature terms, which extrapolates nothing.
     n_rows : int
         Samples so far.
     """
@@ -141,6 +142,8 @@ class Compensator:
         self._references = dict(references)
         self._t_ref_c = t_ref_c
         self._range_c = temperature_range_c
+        # A model without temperature terms extrapolates nothing in temperature.
+        self._reads_temperature = any(needs_temperature(b) for b in self._bases)
         self._t0: float | None = None
         self._carried: dict[tuple[float, float | None], tuple[float, float, float]] = {}
         self._warned = False
@@ -230,6 +233,8 @@ class Compensator:
         return _continued_power(x, lo, hi, feats.t_ref_c, basis.order)
 
     def _check_range(self, temp: NDArray[np.float64]) -> None:
+        if not self._reads_temperature:
+            return
         finite = temp[np.isfinite(temp)]
         if finite.size == 0:
             return

@@ -42,7 +42,14 @@ import numpy.typing as npt
 
 from accelcore._accelcore import first_order_lag
 from accelcore.simulate.chain import RunState, Stage
-from accelcore.simulate.events import GravityDrift, OutputStep, RunTilt, TurnOnBias, WarmUp
+from accelcore.simulate.events import (
+    GravityDrift,
+    OutputStep,
+    ProbeLag,
+    RunTilt,
+    TurnOnBias,
+    WarmUp,
+)
 from accelcore.simulate.runs import SimulatedArrays
 
 __all__ = [
@@ -53,6 +60,7 @@ __all__ = [
     "Nonlinearity",
     "OffsetCurvature",
     "OutputStep",
+    "ProbeLag",
     "RunTilt",
     "SensitivityCurvature",
     "SupplySensitivity",

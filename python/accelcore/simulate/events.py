@@ -17,7 +17,9 @@ event into the compensation of other data is wrong there.
 - :class:`WarmUp`: after power-on at the start of a run, an offset that decays
   exponentially;
 - :class:`TurnOnBias`: every run powers on with an offset of its own (the part's
-  turn-on repeatability): a scatter over the runs, no run an outlier.
+  turn-on repeatability): a scatter over the runs, no run an outlier;
+- :class:`ProbeLag`: one run's temperature probe out of its place (left on a shelf):
+  the temperature logged in that run trails the chamber air.
 
 A run is named by its orientation label (``"OZ+"``); a session that repeats an
 orientation gets the event in every run of that orientation. None of the events
@@ -35,9 +37,18 @@ from typing import Final
 import numpy as np
 import numpy.typing as npt
 
+from accelcore._accelcore import first_order_lag
 from accelcore.simulate.chain import RunState, Stage
 
-__all__ = ["GravityDrift", "OutputStep", "RunTilt", "TurnOnBias", "WarmUp", "rotation_matrix"]
+__all__ = [
+    "GravityDrift",
+    "OutputStep",
+    "ProbeLag",
+    "RunTilt",
+    "TurnOnBias",
+    "WarmUp",
+    "rotation_matrix",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -329,3 +340,46 @@ class TurnOnBias:
         key = [self.seed, *(ord(c) for c in state.orientation)]
         offset = np.random.default_rng(key).normal(size=3) * _vec3(self.mg_sd, "mg_sd")
         state.output = state.output + _mg_to_units(state, offset)
+
+
+@dataclass(frozen=True)
+class ProbeLag:
+    """One run's probe out of its place: the temperature logged in it trails the air.
+
+    The chamber probe was left lying on a steel shelf after the part was turned (out of
+    its clip in the air stream): it logs the shelf, a first-order lag ``tau_s`` behind
+    the air, plus its own noise. The part follows the air as in every other run.
+
+    Parameters
+    ----------
+    run : str
+        Orientation label of the run, e.g. ``"OY-"``.
+    tau_s : float, default 180
+        Time constant of the lag, s (up to 8 °C behind on a 1.34 °C/min ramp).
+    """
+
+    run: str
+    tau_s: float = 180.0
+
+    def __post_init__(self) -> None:
+        _check_run(self.run)
+        if not (math.isfinite(self.tau_s) and self.tau_s > 0.0):
+            raise ValueError(f"tau_s must be finite and > 0, got {self.tau_s!r}")
+
+    @property
+    def name(self) -> str:
+        """``"probe_lag"``."""
+        return "probe_lag"
+
+    @property
+    def stage(self) -> Stage:
+        """``"temperature"``."""
+        return "temperature"
+
+    def apply(self, state: RunState, rng: np.random.Generator) -> None:
+        """Lag ``state.logged_temp_c`` behind the air, its noise kept, in the run named."""
+        if not _matches(self.run, state):
+            return
+        noise = state.logged_temp_c - state.chamber_temp_c
+        lagged = first_order_lag(state.time_s, state.chamber_temp_c, self.tau_s)
+        state.logged_temp_c = lagged + noise

@@ -273,7 +273,13 @@ def _diagnosis_section(diag: Diagnosis) -> str:
 def _effects_section(diag: Diagnosis) -> str:
     """Render the added effects (± se), held-out error per axis before and after, leftovers."""
     eff = diag.effects_table()
-    if eff.empty:
+    if eff.empty and diag.session_events:
+        parts = [
+            "<p>No effect added: no candidate cut the held-out error by the required margin; "
+            "the base model's terms are fitted beside the session events, whose figures "
+            "they change.</p>"
+        ]
+    elif eff.empty:
         parts = [
             "<p>No effect added: no candidate cut the held-out error by the required margin; "
             "the base model is kept.</p>"
@@ -296,7 +302,9 @@ def _effects_section(diag: Diagnosis) -> str:
     held = diag.heldout_by_axis()
     parts += [
         "<h3>Held-out error per axis (RMS, mg)</h3>",
-        f"<p>On the {escape(diag.scheme)} folds; pooled is the RMS over the three axes.</p>",
+        f"<p>On the {escape(diag.scheme)} folds"
+        + (", of the output less the session events" if diag.session_events else "")
+        + "; pooled is the RMS over the three axes.</p>",
         table(
             ["axis", "base_mg", "diagnosed_mg", "ratio", "cut_pct"],
             [
