@@ -38,6 +38,7 @@ from accelcore.errors import (
 )
 from accelcore.fitting.plausibility import implausible_sensitivities
 from accelcore.fitting.reduced import Reduced, functions_of, shared
+from accelcore.fitting.spans import session_temperature_span_c, thin_temperature_terms
 from accelcore.fitting.stacking import CutFeatures, Stacked, block_weights, stack_session
 from accelcore.input.session import Session
 from accelcore.model import (
@@ -85,7 +86,7 @@ def fit_axis(
     # the functions' sums of squares (only compared with 0).
     col_ss = sum((np.square(maps[i]) * reduced.sum_squares[i][:, None]).sum(axis=0) for i in parts)
     n_used = sum(int(np.count_nonzero(data.weight[i] > 0)) for i in parts)
-    for j, span, span_all in _thin_temperature_terms(axis, terms, data, parts):
+    for j, span, span_all in thin_temperature_terms(axis, terms, data, parts):
         estimated[j] = False
         notes.append(
             f"{axis}: {_public_name(terms[j], axis)} not identified: the samples that carry it "
@@ -190,66 +191,6 @@ def _pushed(
         shift = (m[:, ~estimated] @ fixed[~estimated])[:, None] if some_fixed else None
         lsq.push_mapped(reduced.factors[i], m[:, estimated], [response], shift)
     return lsq
-
-
-#: A temperature term is identified only by samples spread over at least this
-#: fraction of the fitted temperature span; fitted on less, it extrapolates a
-#: slope from a few degrees over the whole range.
-MIN_SPAN_FRACTION = 0.25
-
-
-def _thin_temperature_terms(
-    axis: str,
-    terms: Sequence[Term],
-    data: Stacked,
-    parts: Sequence[int] | range,
-) -> list[tuple[int, float, float]]:
-    """Temperature terms whose carrying samples span too little temperature: (index, spans).
-
-    A gain term is carried by the stretches whose gravity on its source axis is not 0
-    (a stretch holds one orientation); the span of a union of stretches is read from
-    each stretch's lowest and highest weighted temperature.
-    """
-    lows: dict[int, float] = {}
-    highs: dict[int, float] = {}
-    for i in parts:
-        temps = data.features[i].temperature_c[data.weight[i] > 0]
-        if temps.size:
-            lows[i], highs[i] = float(temps.min()), float(temps.max())
-    if not lows:
-        return []
-
-    def span(stretches: list[int]) -> float:
-        return max(highs[i] for i in stretches) - min(lows[i] for i in stretches)
-
-    span_all = span(list(lows))
-    thin = []
-    for j, t in enumerate(terms):
-        if not t.basis.temperature_order:
-            continue
-        carrying = list(lows)
-        if t.kind == "gain":
-            source = AXES.index(t.source or axis)
-            carrying = [i for i in carrying if data.gravity[i][source] != 0]
-        if not carrying:
-            continue  # the term's column is zero: dropped as such by the fit
-        s = span(carrying)
-        if s < MIN_SPAN_FRACTION * span_all:
-            thin.append((j, s, span_all))
-    return thin
-
-
-def session_temperature_span_c(session: Session) -> float:
-    """Return the span of the runs' temperatures (block means), 5th to 95th percentile, °C.
-
-    0 when no finite temperature was logged.
-    """
-    temps = np.concatenate([np.asarray(r.temperature_c, dtype=np.float64) for r in session.runs])
-    temps = temps[np.isfinite(temps)]
-    if temps.size == 0:
-        return 0.0
-    lo, hi = np.quantile(temps, [0.05, 0.95])
-    return float(hi - lo)
 
 
 def _public_name(term: Term, axis: str) -> str:
