@@ -242,6 +242,35 @@ def _pooled_fit(
     return stat, size, error
 
 
+def _window_fit(
+    eng: Engine, specs: Mapping[str, Spec], term: Term
+) -> tuple[FloatArray, FloatArray]:
+    """Each axis' chi-square of one event term and its size, by the engine's window fits.
+
+    The statistic of :func:`_pooled_fit` per axis before the residual's correlation
+    widens it, from the drop of the in-sample error the term brings: ``coef² / var =
+    drop / s²`` (``s²`` the residual variance per unit weight). No least squares on
+    every sample, so that trying each run costs a few window fits. NaN where the term
+    is not fitted.
+    """
+    key = (term.basis, None)  # an offset's column key (the engine's, as between's)
+    n = int(np.count_nonzero(eng.w > 0))
+    chi2 = np.full(len(AXES), np.nan)
+    size = np.full(len(AXES), np.nan)
+    for i, a in enumerate(AXES):
+        terms = replace(specs[a], events=(*specs[a].events, term)).terms(a)
+        keys = eng._keys(a, terms)
+        held = eng._heldout_of(a, terms)
+        dof = n - len(keys)
+        after = eng.cv(a, terms).sse_in
+        drop = eng.cv(a, specs[a].terms(a)).sse_in - after
+        if held is None or key not in keys or dof <= 0 or not (drop > 0 and after > 0):
+            continue
+        chi2[i] = drop * dof / after
+        size[i] = float(held.coefficients[keys.index(key)])
+    return chi2, size
+
+
 def _pooled_stat(eng: Engine, specs: Mapping[str, Spec], term: Term) -> float:
     """Chi-square (3 dof) of one event term fitted beside the models (:func:`_pooled_fit`)."""
     return _pooled_fit(eng, specs, term)[0]
@@ -274,13 +303,24 @@ def _trailing_runs(
     lo, hi = np.quantile(eng.temperature, [0.05, 0.95])
     if not hi - lo >= MIN_TEMPERATURE_SPAN_C:  # NaN: no temperature logged
         return [], []
-    fits: dict[str, tuple[float, FloatArray, FloatArray, Term]] = {}
+    raw: dict[str, tuple[FloatArray, FloatArray, Term]] = {}
     for label in dict.fromkeys(labels):
         term = Term(
             "offset", RunRate(label), effect=f"{EVENT_PREFIX}temperature out of step in {label}"
         )
         if np.any(eng.basis(term.basis)):
-            fits[label] = (*_pooled_fit(eng, specs, term), term)
+            raw[label] = (*_window_fit(eng, specs, term), term)
+
+    def passes(chi2: FloatArray) -> bool:
+        return bool(corrected_p(chi2_sf(float(np.nansum(chi2)), 3), len(runs)) < alpha)
+
+    if not any(passes(c) for c, _, _ in raw.values()):
+        return [], []  # not even as if the residual were white
+    inflation = np.array([variance_inflation(eng, a, specs[a]) for a in AXES])
+    fits: dict[str, tuple[float, FloatArray, FloatArray, Term]] = {}
+    for label, (chi2, size, term) in raw.items():
+        chi2 = chi2 / inflation
+        fits[label] = (float(np.nansum(chi2)), size, np.abs(size) / np.sqrt(chi2), term)
     found: list[tuple[float, Term]] = []
     for label, (stat, size, error, term) in fits.items():
         if corrected_p(chi2_sf(stat, 3), len(runs)) >= alpha:
