@@ -107,7 +107,14 @@ def structures(
             note = ""
             sig = p < alpha and rms >= min_structure_mg
             if sig and per_run:
-                note = _period_note(eng, r, sigma)
+                note = "; ".join(
+                    n
+                    for n in (
+                        _between_runs_note(r_w, count, run_w, sigma, chi2),
+                        _period_note(eng, r, sigma),
+                    )
+                    if n
+                )
             out.append(Structure(a, name, chi2, dof, p, rms, sigma, bool(sig), note))
     return out
 
@@ -146,6 +153,30 @@ def _binned_chi2(
     grand = float((means * n).sum() / n.sum())
     chi2 = float((n * (means - grand) ** 2).sum()) / (sigma * sigma)
     return chi2, int(ok.sum()) - 1, int(n.sum())
+
+
+def _between_runs_note(
+    r: FloatArray, count: FloatArray, run: NDArray[np.int64], sigma: float, chi2: float
+) -> str:
+    """Say when most of a structure in time is between the runs' mean levels.
+
+    Runs whose levels differ (a re-placement, a re-seat, a turn-on offset) show as
+    structure against time, binned within each run; when the runs' means alone hold
+    half its chi-square or more, the note says so, with how far apart they are.
+    """
+    n = np.bincount(run, weights=count)
+    used = n > 0
+    if np.count_nonzero(used) < 2 or not chi2 > 0:
+        return ""
+    means = np.bincount(run, weights=count * r)[used] / n[used]
+    grand = float((means * n[used]).sum() / n[used].sum())
+    between = float((n[used] * (means - grand) ** 2).sum()) / (sigma * sigma)
+    if between < 0.5 * chi2:
+        return ""
+    return (
+        f"mostly between runs: their mean levels differ by up to "
+        f"{float(means.max() - means.min()):.3g} mg"
+    )
 
 
 def _period_note(eng: Engine, r: FloatArray, sigma: float) -> str:
