@@ -71,7 +71,7 @@ def test_one_runs_level_on_every_axis_is_an_event_not_a_k2(
     # terms were fitted beside the event, and that both held-out errors are of the
     # output less it (the same words a real log needed: real22).
     text = d.text()
-    assert d.effects == () and "fitted beside the session events below" in text, text
+    assert d.effects == () and "refitted beside the session events below" in text, text
     assert "Held-out error per axis (RMS, mg, on the output less the session events)" in text
 
 

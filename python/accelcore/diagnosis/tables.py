@@ -201,8 +201,8 @@ def effects_lines(table: pd.DataFrame, events: bool = False) -> list[str]:
     """
     if table.empty and events:
         return [
-            "Added effects: none (no effect added; the base model's terms, fitted beside "
-            "the session events below, whose figures they change)"
+            "Added effects: none (no effect added; the base model's terms, refitted beside "
+            "the session events below, which change their values)"
         ]
     if table.empty:
         return ["Added effects: none (no effect added; the base model is kept)"]

@@ -276,8 +276,8 @@ def _effects_section(diag: Diagnosis) -> str:
     if eff.empty and diag.session_events:
         parts = [
             "<p>No effect added: no candidate cut the held-out error by the required margin; "
-            "the base model's terms are fitted beside the session events, whose figures "
-            "they change.</p>"
+            "the base model's terms are refitted beside the session events, which change "
+            "their values.</p>"
         ]
     elif eff.empty:
         parts = [
