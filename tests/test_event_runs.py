@@ -183,3 +183,41 @@ def test_a_one_mg_knock_in_the_same_session_is_still_a_step() -> None:
     d = diagnose(_cooling((sev.OutputStep("OZ-", 1800.0, 1.0),)))
     steps = {str(e["event"]) for e in d.session_events if str(e["event"]).startswith("step")}
     assert len(steps) == 1 and next(iter(steps)).startswith("step in OZ- at 18"), steps
+
+
+def test_rates_off_in_both_runs_of_a_pair_are_the_parts(
+    bench: ModuleType, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One run's temperature out of step is an event (a probe left on a shelf); the
+    same in both runs of a ± pair is the orientation's, the part's (blind round 4's
+    orient_lag: its z runs' rates as events left 3.69 mg on the validation session,
+    their steps 3.36). The rule alone: each run's window fit replaced by a chosen one
+    (a size of 1 mg per °C/min on z, ± 0.01, in the runs named; the others at 0)."""
+    from accelcore.diagnosis import events, rates
+    from accelcore.diagnosis.space import spec_from_terms
+
+    session = bench.simulate_session((), 1, HOURS, bench.CALIBRATION_PROFILE)
+    d = diagnose(session)
+    eng = d._data()
+    found_specs = {a: spec_from_terms(a, d.calibration.axes[a].terms) for a in AXES}
+    specs = {a: s for a, s in found_specs.items() if s is not None}
+    assert len(specs) == 3, found_specs
+    runs = events._runs(eng)
+    labels = events._labels(eng, runs)
+
+    def found(off: set[str]) -> tuple[list[str], list[str]]:
+        def window_fit(eng_: object, specs_: object, term: object) -> tuple[np.ndarray, np.ndarray]:
+            run = term.basis.run  # type: ignore[attr-defined]
+            size = np.array([0.0, 0.0, 1.0 if run in off else 0.0])
+            return (size / 0.01) ** 2 + 1e-6, size
+
+        monkeypatch.setattr(rates, "_window_fit", window_fit)
+        monkeypatch.setattr(rates, "variance_inflation", lambda *args: 1.0)
+        terms, notes = rates.trailing_runs(eng, specs, runs, labels, 0.01, events.LEVEL_OUTLIER_Z)
+        return [t.effect for t in terms], notes
+
+    one, notes = found({"OY-"})
+    assert one == ["event: temperature out of step in OY-"] and notes == [], (one, notes)
+    pair, notes = found({"OZ+", "OZ-"})
+    assert pair == [], pair
+    assert len(notes) == 1 and "both runs of a pair (OZ+, OZ-)" in notes[0], notes

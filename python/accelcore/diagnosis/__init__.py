@@ -45,6 +45,8 @@ Modules, along the data flow:
 - :mod:`~accelcore.diagnosis.engine`: parts, blocks and folds; held-out fits;
 - :mod:`~accelcore.diagnosis.search`: variants, the lag time-constant search;
 - :mod:`~accelcore.diagnosis.lags`: the two-way lag's search and variant;
+- :mod:`~accelcore.diagnosis.rates` and :mod:`~accelcore.diagnosis.events`: session
+  events (a run's temperature out of step; steps, run levels);
 - :mod:`~accelcore.diagnosis.confounds`: what the session cannot tell apart (pairs of
   effects, effects the base model's own terms span);
 - :mod:`~accelcore.diagnosis.structure`: the binned check of the final residual;

@@ -35,7 +35,6 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from accelcore.constants import MIN_TEMPERATURE_SPAN_C
 from accelcore.input.medians import median_of_finite
 from accelcore.model import AXES, Constant, RunRate, RunStep, Term
 from accelcore.result.calibration import AxisModel
@@ -43,6 +42,7 @@ from accelcore.result.calibration import AxisModel
 from .between import window_residuals
 from .engine import Engine
 from .parameters import fit_models, variance_inflation
+from .rates import trailing_runs
 from .search import cross_sources
 from .space import EVENT_PREFIX, Spec, is_event, with_cross
 from .stats import chi2_sf, corrected_p, t_sf
@@ -138,7 +138,8 @@ def find_run_events(
     runs = _runs(eng)
     labels = _labels(eng, runs)
     # Runs whose temperature is out of step with the part's, each alone beside the models.
-    trailing, rate_notes = _trailing_runs(eng, specs, runs, labels, alpha)
+    trailing, rate_notes = trailing_runs(eng, specs, runs, labels, alpha, LEVEL_OUTLIER_Z)
+    trailing = trailing[:MAX_EVENTS]
     notes += rate_notes
     resid = {a: eng.residuals(a, specs[a].terms(a))[0] for a in AXES}
     # Steps: one pass over every run, the corrected test over all windows.
@@ -242,103 +243,9 @@ def _pooled_fit(
     return stat, size, error
 
 
-def _window_fit(
-    eng: Engine, specs: Mapping[str, Spec], term: Term
-) -> tuple[FloatArray, FloatArray]:
-    """Each axis' chi-square of one event term and its size, by the engine's window fits.
-
-    The statistic of :func:`_pooled_fit` per axis before the residual's correlation
-    widens it, from the drop of the in-sample error the term brings: ``coef² / var =
-    drop / s²`` (``s²`` the residual variance per unit weight). No least squares on
-    every sample, so that trying each run costs a few window fits. NaN where the term
-    is not fitted.
-    """
-    key = (term.basis, None)  # an offset's column key (the engine's, as between's)
-    n = int(np.count_nonzero(eng.w > 0))
-    chi2 = np.full(len(AXES), np.nan)
-    size = np.full(len(AXES), np.nan)
-    for i, a in enumerate(AXES):
-        terms = replace(specs[a], events=(*specs[a].events, term)).terms(a)
-        keys = eng._keys(a, terms)
-        held = eng._heldout_of(a, terms)
-        dof = n - len(keys)
-        after = eng.cv(a, terms).sse_in
-        drop = eng.cv(a, specs[a].terms(a)).sse_in - after
-        if held is None or key not in keys or dof <= 0 or not (drop > 0 and after > 0):
-            continue
-        chi2[i] = drop * dof / after
-        size[i] = float(held.coefficients[keys.index(key)])
-    return chi2, size
-
-
 def _pooled_stat(eng: Engine, specs: Mapping[str, Spec], term: Term) -> float:
     """Chi-square (3 dof) of one event term fitted beside the models (:func:`_pooled_fit`)."""
     return _pooled_fit(eng, specs, term)[0]
-
-
-def _trailing_runs(
-    eng: Engine,
-    specs: Mapping[str, Spec],
-    runs: list[NDArray[np.int64]],
-    labels: list[str],
-    alpha: float,
-) -> tuple[list[Term], list[str]]:
-    """Return the runs whose logged temperature is out of step with the part's, and notes.
-
-    A probe that lagged in one run (left on a shelf, out of its clip) logs
-    ``T - tau dT/dt``: the part's temperature terms then read that run off by about its
-    tempco times ``tau dT/dt``, an offset in the run's rate of change
-    (:class:`~accelcore.model.RunRate`). Each run's rate is fitted beside the models on
-    every sample, its size pooled over the axes against its widened standard error
-    (chi-square, 3 dof), Bonferroni-corrected over the runs. Being one run's, its size
-    must also stand out of the other runs' on some axis: beyond
-    :data:`LEVEL_OUTLIER_Z` robust standard deviations of theirs (their median and
-    MAD; at least its own standard error), as a run's level must. What the model leaves
-    in every run's rate (a lag it lacks, or holds only in part) is the part's. As for
-    steps, a rate off in half the runs or more is the part's, not an event. Only where
-    the temperature moves (:data:`MIN_TEMPERATURE_SPAN_C`).
-    """
-    if len(runs) < 3:
-        return [], []
-    lo, hi = np.quantile(eng.temperature, [0.05, 0.95])
-    if not hi - lo >= MIN_TEMPERATURE_SPAN_C:  # NaN: no temperature logged
-        return [], []
-    raw: dict[str, tuple[FloatArray, FloatArray, Term]] = {}
-    for label in dict.fromkeys(labels):
-        term = Term(
-            "offset", RunRate(label), effect=f"{EVENT_PREFIX}temperature out of step in {label}"
-        )
-        if np.any(eng.basis(term.basis)):
-            raw[label] = (*_window_fit(eng, specs, term), term)
-
-    def passes(chi2: FloatArray) -> bool:
-        return bool(corrected_p(chi2_sf(float(np.nansum(chi2)), 3), len(runs)) < alpha)
-
-    if not any(passes(c) for c, _, _ in raw.values()):
-        return [], []  # not even as if the residual were white
-    inflation = np.array([variance_inflation(eng, a, specs[a]) for a in AXES])
-    fits: dict[str, tuple[float, FloatArray, FloatArray, Term]] = {}
-    for label, (chi2, size, term) in raw.items():
-        chi2 = chi2 / inflation
-        fits[label] = (float(np.nansum(chi2)), size, np.abs(size) / np.sqrt(chi2), term)
-    found: list[tuple[float, Term]] = []
-    for label, (stat, size, error, term) in fits.items():
-        if corrected_p(chi2_sf(stat, 3), len(runs)) >= alpha:
-            continue
-        others = np.array([f[1] for k, f in fits.items() if k != label])
-        if others.shape[0] < 2:
-            continue
-        mid = np.nanmedian(others, axis=0)
-        spread = np.maximum(1.4826 * np.nanmedian(np.abs(others - mid), axis=0), error)
-        if np.nanmax(np.abs(size - mid) / spread) > LEVEL_OUTLIER_Z:
-            found.append((stat, term))
-    if 2 * len(found) >= len(runs):
-        return [], [
-            f"temperatures out of step in {len(found)} of {len(runs)} runs: not treated as "
-            "session events (what repeats in most runs is the part's: a lag)"
-        ]
-    found.sort(key=lambda f: -f[0])
-    return [t for _, t in found[:MAX_EVENTS]], []
 
 
 def level_runs(specs: Mapping[str, Spec]) -> list[str]:
