@@ -161,13 +161,16 @@ def test_a_board_turned_off_the_axes_stays_in_the_body_frame(tmp_path: Path) -> 
         np.testing.assert_allclose(run.output[:, j], _block_means(body[:, j]), rtol=0, atol=ATOL)
 
 
-def test_a_rotation_that_cannot_be_undone_is_refused(tmp_path: Path) -> None:
-    """A custom rotation (101) is not in pymavlink's table; a rotation that changes
-    mid-log leaves the data in two frames. Both name the file."""
+def test_a_rotation_that_cannot_be_undone_is_said_or_refused(tmp_path: Path) -> None:
+    """A custom rotation (101) is not in pymavlink's table: the log is read as logged,
+    nothing undone (its TCAL was applied in a frame out of reach), with a warning. A
+    rotation that changes mid-log leaves the data in two frames: refused. Both name
+    the file."""
     custom = tmp_path / "custom.bin"
-    _write_dataflash(custom, {0: _sweep(0)}, {"AHRS_ORIENTATION": 101.0})
-    with pytest.raises(ParameterError, match=r"custom\.bin: AHRS_ORIENTATION = 101"):
-        read_dataflash(custom)
+    _write_dataflash(custom, {0: _sweep(0)}, {"AHRS_ORIENTATION": 101.0, "INS_ACCOFFS_Z": 0.5})
+    with pytest.warns(DataQualityWarning, match=r"custom\.bin: AHRS_ORIENTATION = 101 .*as logged"):
+        run = read_dataflash(custom, decimation_factor=10).runs[0]
+    np.testing.assert_allclose(run.output[:, 2], _block_means(_sweep(0)["z"]), rtol=1e-12)
     moved = tmp_path / "moved.bin"
     _write_dataflash(
         moved, {0: _sweep(0)}, {"AHRS_ORIENTATION": 0.0}, {50: {"AHRS_ORIENTATION": 2.0}}

@@ -54,22 +54,15 @@ _DEFAULTS = {"ENABLE": 0.0, "SCAL": 1.0, "OFFS": 0.0, "CALTEMP": -300.0}
 _AXIS_TOLERANCE = 1e-9
 
 
-def rotation_matrix(rotation: int, file: str) -> FloatArray:
+def rotation_matrix(rotation: float) -> FloatArray | None:
     """Return the matrix of ArduPilot's board rotation ``rotation`` (body = R · board).
 
-    Raises
-    ------
-    accelcore.ParameterError
-        A rotation pymavlink's table does not hold (e.g. the custom rotations, 100+).
+    None for a rotation pymavlink's table does not hold (the custom rotations, 100 and
+    up, and those ArduPilot added after pymavlink's table).
     """
     rotations = require("pymavlink.rotmat", "ardupilot", "read_dataflash").rotations
-
     if rotation < 0 or rotation >= len(rotations) or rotation != int(rotation):
-        raise ParameterError(
-            f"{file}: {ROTATION} = {rotation:g} in the log is not one of the "
-            f"{len(rotations)} board rotations pymavlink knows (0-{len(rotations) - 1}); "
-            "its IMU data cannot be rotated back to the sensor's frame"
-        )
+        return None
     r = rotations[int(rotation)].r
     return np.array(
         [[row.x, row.y, row.z] for row in (r.a, r.b, r.c)],
@@ -145,7 +138,11 @@ class LoggedCorrections:
                 "its IMU data are in more than one frame"
             )
         self.rotation = rotations.pop()
-        self.matrix = rotation_matrix(int(self.rotation), file) if self.rotation else np.eye(3)
+        matrix = rotation_matrix(self.rotation) if self.rotation else np.eye(3)
+        #: Whether the rotation is known: if not, nothing is undone (the frame it was
+        #: corrected in cannot be reached).
+        self.known = matrix is not None
+        self.matrix = np.eye(3) if matrix is None else matrix
 
     @classmethod
     def scan(cls, reader: Any, instance: int, file: str) -> LoggedCorrections:
@@ -169,8 +166,10 @@ class LoggedCorrections:
         return _label_of(self.matrix.T @ gravity_of(body_label))
 
     def undone(self) -> list[str]:
-        """Name what :meth:`undo` takes back (empty: the log holds the sensor's reading)."""
+        """Name what :meth:`undo` takes back (empty: nothing to undo, or not undoable)."""
         out: list[str] = []
+        if not self.known:
+            return out
         if self.rotation:
             out.append(f"{ROTATION} = {self.rotation:g}")
         if self.tcal_enabled():

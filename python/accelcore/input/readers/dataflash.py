@@ -130,8 +130,9 @@ def read_dataflash(
         missing from it (the message names the file).
     accelcore.ParameterError
         No IMU instance ``instance`` (the message lists those found), or an
-        ``AHRS_ORIENTATION`` pymavlink's table of rotations does not hold or that
-        changes during the log.
+        ``AHRS_ORIENTATION`` that changes during the log. One pymavlink's table of
+        rotations does not hold (a custom rotation) is warned of, and the data are
+        read as logged.
     """
     dfreader = require("pymavlink.DFReader", "ardupilot", "read_dataflash")
     file = _check_file(path)
@@ -231,7 +232,16 @@ def _read(
         settle_s=settle_s,
         log_sensor={"ardupilot_imu": instance + 1},  # INS_TCAL<n>: n is 1-based
     )
-    if logged.rotation and not rotate:
+    if not logged.known:
+        warnings.warn(
+            f"{file}: {ROTATION} = {logged.rotation:g} in the log is not one of the board "
+            "rotations pymavlink's table holds: its IMU data are read as logged, in the "
+            "board's rotated (body) frame and with ArduPilot's corrections in them; an "
+            "ArduPilot export of this calibration would correct the wrong axes",
+            DataQualityWarning,
+            stacklevel=3,
+        )
+    elif logged.rotation and not rotate:
         warnings.warn(
             f"{file}: {ROTATION} = {logged.rotation:g} in the log turns {body_label} off the "
             "sensor's axes, so its IMU data stay in the board's rotated (body) frame "
