@@ -483,16 +483,31 @@ def calibrate(
         model_terms = {
             a: tuple(terms[a]) if terms and a in terms else full_gain_terms(a) for a in AXES
         }
-        unlogged: list[str] = []
-        span = session_temperature_span_c(session)
-        still = terms is None and span < MIN_TEMPERATURE_SPAN_C
-        if not session.has_temperature or still:
-            unlogged = [
-                f"{a}:{_public_name(t, a)}"
-                for a in AXES
-                for t in model_terms[a]
-                if needs_temperature(t.basis)
-            ]
+        # A calibration at one temperature: none logged, or (by default) one that does
+        # not move; the model's temperature terms are left out and said so.
+        at_one = ""
+        if not session.has_temperature:
+            at_one = (
+                "no temperature logged: calibration at one temperature (offset, sensitivity "
+                "and cross-axis gain; no temperature terms, T_ref does not apply)"
+            )
+        elif terms is None and (span := session_temperature_span_c(session)) < (
+            MIN_TEMPERATURE_SPAN_C
+        ):
+            at_one = (
+                f"the temperature spans {span:.2f} °C (5th to 95th percentile), less than "
+                f"{MIN_TEMPERATURE_SPAN_C:g} °C: calibration at one temperature, no "
+                "temperature terms (over so little, a temperature coefficient takes any "
+                "difference between runs, a re-placement or a slow settling, for "
+                "temperature, and extrapolates it; pass terms= to fit them anyway)"
+            )
+        dropped = [
+            f"{a}:{_public_name(t, a)}"
+            for a in AXES
+            for t in model_terms[a]
+            if at_one and needs_temperature(t.basis)
+        ]
+        if dropped:
             model_terms = {
                 a: tuple(t for t in ts if not needs_temperature(t.basis))
                 for a, ts in model_terms.items()
@@ -500,23 +515,9 @@ def calibrate(
         axes, not_identified, notes, t_range, refs = _fit_joint(
             session, model_terms, t_ref_c, window_c, robust=robust
         )
-        if unlogged and not session.has_temperature:
-            not_identified = [*unlogged, *not_identified]
-            notes = [
-                "no temperature logged: calibration at one temperature (offset, sensitivity "
-                "and cross-axis gain; no temperature terms, T_ref does not apply)",
-                *notes,
-            ]
-        elif unlogged:
-            not_identified = [*unlogged, *not_identified]
-            notes = [
-                f"the temperature spans {span:.2f} °C (5th to 95th percentile), less than "
-                f"{MIN_TEMPERATURE_SPAN_C:g} °C: calibration at one temperature, no "
-                "temperature terms (over so little, a temperature coefficient takes any "
-                "difference between runs, a re-placement or a slow settling, for "
-                "temperature, and extrapolates it; pass terms= to fit them anyway)",
-                *notes,
-            ]
+        if dropped:
+            not_identified = [*dropped, *not_identified]
+            notes = [at_one, *notes]
     lo, hi = t_range
     # T_ref is where a model with temperature terms reports its offset and sensitivity.
     reads_t = any(needs_temperature(t.basis) for m in axes.values() for t in m.terms)

@@ -94,13 +94,11 @@ class LoggedCorrections:
     def __init__(self, instance: int, parms: Iterable[tuple[float, str, float]], file: str):
         n = instance + 1
         cal = "" if n == 1 else str(n)
-        self.file = file
-        self.instance = instance
-        self.tcal = f"INS_TCAL{n}"
+        tcal = f"INS_TCAL{n}"
         self._names = {
-            f"{self.tcal}_ENABLE": "ENABLE",
-            f"{self.tcal}_TMIN": "TMIN",
-            f"{self.tcal}_TMAX": "TMAX",
+            f"{tcal}_ENABLE": "ENABLE",
+            f"{tcal}_TMIN": "TMIN",
+            f"{tcal}_TMAX": "TMAX",
             f"INS_ACC{n}_CALTEMP": "CALTEMP",
             ROTATION: "ROTATION",
         }
@@ -109,7 +107,7 @@ class LoggedCorrections:
             self._names[f"INS_ACC{cal}OFFS_{u}"] = f"OFFS_{u}"
             self._names[f"INS_ACC{cal}SCAL_{u}"] = f"SCAL_{u}"
             for k in (1, 2, 3):
-                self._names[f"{self.tcal}_ACC{k}_{u}"] = f"ACC{k}_{u}"
+                self._names[f"{tcal}_ACC{k}_{u}"] = f"ACC{k}_{u}"
         first: dict[str, float] = {}
         changes: list[tuple[float, str, float]] = []
         current: dict[str, float] = {}
@@ -157,32 +155,26 @@ class LoggedCorrections:
     def _get(values: dict[str, float], key: str) -> float:
         return values.get(key, _DEFAULTS.get(key.split("_")[0], 0.0))
 
-    def tcal_enabled(self) -> bool:
-        """Whether ArduPilot's temperature correction was on at any time of the log."""
-        return any(self._get(r, "ENABLE") == 1.0 for r in self.regimes)
-
     def sensor_label(self, body_label: str) -> str | None:
         """Return the sensor-frame label of a body-frame orientation (None: off any axis)."""
         return _label_of(self.matrix.T @ gravity_of(body_label))
 
-    def undone(self) -> list[str]:
-        """Name what :meth:`undo` takes back (empty: nothing to undo, or not undoable)."""
-        out: list[str] = []
-        if not self.known:
-            return out
-        if self.rotation:
-            out.append(f"{ROTATION} = {self.rotation:g}")
-        if self.tcal_enabled():
-            out.append(f"{self.tcal}_ENABLE = 1")
-        cal = any(
-            self._get(r, f"OFFS_{a}") != 0.0 or self._get(r, f"SCAL_{a}") not in (0.0, 1.0)
+    @property
+    def changes_data(self) -> bool:
+        """Whether :meth:`undo` changes the logged samples.
+
+        A rotation, an accelerometer calibration or a temperature correction in force,
+        and every one of them undoable.
+        """
+        corrected = any(
+            self._get(r, "ENABLE") == 1.0
+            or any(
+                self._get(r, f"OFFS_{a}") != 0.0 or self._get(r, f"SCAL_{a}") not in (0.0, 1.0)
+                for a in "XYZ"
+            )
             for r in self.regimes
-            for a in "XYZ"
         )
-        if cal:
-            n = self.instance + 1
-            out.append(f"INS_ACC{'' if n == 1 else n}OFFS/SCAL")
-        return out
+        return self.known and (bool(self.rotation) or corrected)
 
     def undo(
         self, time_us: FloatArray, temperature_c: FloatArray, accel: FloatArray, *, rotate: bool
@@ -214,7 +206,7 @@ class LoggedCorrections:
             c = np.array([[get(values, f"ACC{k}_{u}") for u in "XYZ"] for k in (1, 2, 3)])
             a = (
                 a
-                + _poly(_constrain(temperature_c, lo, hi), c)[:, :]
+                + _poly(_constrain(temperature_c, lo, hi), c)
                 - _poly(_constrain(np.array([get(values, "CALTEMP")]), lo, hi), c)
             )
         return np.asarray(a, dtype=np.float64)

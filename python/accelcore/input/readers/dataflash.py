@@ -178,7 +178,7 @@ def _read(
     name, by_field = _stream_name(reader, file, instance)
     seen: set[int] = set()
     logged = LoggedCorrections.scan(reader, instance, file)
-    undone = logged.undone()
+    undo = logged.changes_data
     body_label = check_orientation(orientation, f"IMU[{instance}]")
     sensor_label = logged.sensor_label(body_label)
     # Back to the sensor's frame, unless gravity would then lie off its axes (a
@@ -193,7 +193,7 @@ def _read(
             a = np.asarray(buffer, dtype=np.float64).reshape(-1, 5)
             buffer.clear()
             accel = a[:, 1:4]
-            if undone:
+            if undo:
                 accel = logged.undo(a[:, 0], a[:, 4], accel, rotate=rotate)
             return FlightRows(time_s=a[:, 0] * 1e-6, temperature_c=a[:, 4], accel=accel)
 
