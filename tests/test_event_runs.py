@@ -221,3 +221,16 @@ def test_rates_off_in_both_runs_of_a_pair_are_the_parts(
     pair, notes = found({"OZ+", "OZ-"})
     assert pair == [], pair
     assert len(notes) == 1 and "both runs of a pair (OZ+, OZ-)" in notes[0], notes
+
+
+def test_two_records_of_one_orientation_are_not_a_pair() -> None:
+    """Records are named by orientation, numbered when one repeats (``OZ+ #2``): two
+    records of OZ+ out of step are not a ± pair (the label's end is its number)."""
+    from accelcore.diagnosis import rates
+    from accelcore.model import RunRate, Term
+
+    def term(run: str) -> Term:
+        return Term("offset", RunRate(run), effect="event: x")
+
+    assert rates._orientation(term("OZ+ #2")) == "OZ+"
+    assert rates._opposite("OZ+") == "OZ-" and rates._opposite("OX-") == "OX+"

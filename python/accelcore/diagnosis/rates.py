@@ -57,9 +57,14 @@ def _window_fit(
     return chi2, size
 
 
-def _rate_run(term: Term) -> str:
-    """Return the (canonical) run label of a :class:`RunRate` term."""
-    return term.basis.run.strip().upper() if isinstance(term.basis, RunRate) else ""
+def _orientation(term: Term) -> str:
+    """Return the orientation of a :class:`RunRate` term's record (``"OZ-"`` of ``"OZ- #2"``)."""
+    return term.basis.run.split(" #")[0] if isinstance(term.basis, RunRate) else ""
+
+
+def _opposite(orientation: str) -> str:
+    """Return the other orientation of a ± pair (``"OZ+"`` for ``"OZ-"``)."""
+    return orientation[:2] + ("-" if orientation.endswith("+") else "+")
 
 
 def trailing_runs(
@@ -131,16 +136,14 @@ def trailing_runs(
         ]
     # Both runs of a ± pair out of step alike is the axis' (a lag that differs with the
     # orientation), not what happened to one run: a probe lags in the run it was left in.
-    labels_found = {_rate_run(t) for _, t in found}
-    paired = {
-        lab for lab in labels_found if lab[:2] + ("-" if lab.endswith("+") else "+") in labels_found
-    }
+    seen = {_orientation(t) for _, t in found}
+    paired = {o for o in seen if _opposite(o) in seen}
     notes: list[str] = []
     if paired:
         notes.append(
             f"temperatures out of step in both runs of a pair ({', '.join(sorted(paired))}): "
             "not treated as session events (what an orientation repeats is the part's)"
         )
-        found = [f for f in found if _rate_run(f[1]) not in paired]
+        found = [f for f in found if _orientation(f[1]) not in paired]
     found.sort(key=lambda f: -f[0])
     return [t for _, t in found], notes
